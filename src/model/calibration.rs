@@ -1,0 +1,682 @@
+//! The calibration file: every parameter of the train–track model (MODEL.md §1–6)
+//! plus the integration settings and the population ranges of the bank.
+//!
+//! [`Calibration`] is the editable document (what `wheelflat calibration` prints and
+//! what a TOML file deserialises into). [`Calibration::check`] turns it into a
+//! [`CheckedCalibration`], the only form the physics accepts: every value is finite,
+//! every mass and stiffness positive, every sensor on the rail, every output window
+//! inside the simulated span.
+
+use serde::{Deserialize, Serialize};
+use std::ops::Deref;
+use thiserror::Error;
+
+/// Errors raised while reading or checking a calibration.
+#[derive(Debug, Error)]
+pub enum CalibrationError {
+    /// The TOML text does not parse or has unknown / missing keys (the message has line and column).
+    #[error("{0}")]
+    Parse(#[from] toml::de::Error),
+    /// A value parses but is physically or logically invalid.
+    #[error("invalid calibration value `{key}` = {value}: {reason}")]
+    Invalid {
+        /// Dotted key, e.g. `track.pad_stiffness_n_per_m`.
+        key: String,
+        /// The offending value as written.
+        value: String,
+        /// Why it is rejected.
+        reason: String,
+    },
+}
+
+/// Rail, pads, sleepers and ballast (MODEL.md §2). Per rail seat: one rail, half a sleeper.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrackParams {
+    /// Number of sleeper bays; the rail is `bays · sleeper_spacing_m` long, clamped at both ends.
+    pub bays: usize,
+    /// Sleeper spacing (m).
+    pub sleeper_spacing_m: f64,
+    /// Young's modulus of the rail (Pa).
+    pub youngs_modulus_pa: f64,
+    /// Shear modulus of the rail (Pa).
+    pub shear_modulus_pa: f64,
+    /// Rail cross-section area (m²).
+    pub rail_area_m2: f64,
+    /// Rail second moment of area (m⁴).
+    pub rail_second_moment_m4: f64,
+    /// Timoshenko shear coefficient κ.
+    pub shear_coefficient: f64,
+    /// Rail density (kg/m³).
+    pub rail_density_kg_per_m3: f64,
+    /// Rail-pad stiffness K_p (N/m).
+    pub pad_stiffness_n_per_m: f64,
+    /// Rail-pad damping C_p (N·s/m).
+    pub pad_damping_ns_per_m: f64,
+    /// Half-sleeper mass M_s (kg).
+    pub sleeper_mass_kg: f64,
+    /// Ballast stiffness K_b (N/m).
+    pub ballast_stiffness_n_per_m: f64,
+    /// Ballast damping C_b (N·s/m).
+    pub ballast_damping_ns_per_m: f64,
+}
+
+/// Which wheel of the half bogie carries the flat.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum WheelPosition {
+    /// The wheel ahead in the direction of travel.
+    Leading,
+    /// The wheel behind (the paper's and MODEL.md's default).
+    Trailing,
+}
+
+impl WheelPosition {
+    /// Index of the wheel in the vehicle's wheel arrays (0 = leading, 1 = trailing).
+    pub fn index(self) -> usize {
+        match self {
+            WheelPosition::Leading => 0,
+            WheelPosition::Trailing => 1,
+        }
+    }
+}
+
+/// Pitch-plane half bogie (MODEL.md §3).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VehicleParams {
+    /// Bogie frame mass M_b, half (kg).
+    pub bogie_mass_kg: f64,
+    /// Bogie pitch inertia J_b, half (kg·m²).
+    pub bogie_pitch_inertia_kg_m2: f64,
+    /// Unsprung mass per wheel M_w, half wheelset (kg).
+    pub wheel_mass_kg: f64,
+    /// Primary suspension stiffness K_1 per wheel (N/m).
+    pub primary_stiffness_n_per_m: f64,
+    /// Primary suspension damping C_1 per wheel (N·s/m).
+    pub primary_damping_ns_per_m: f64,
+    /// Half wheelbase l_b (m).
+    pub half_wheelbase_m: f64,
+    /// Quarter car body mass M_c, applied as the constant load M_c·g at the bogie centre (kg).
+    pub car_body_mass_kg: f64,
+    /// Wheel rolling radius R_w (m).
+    pub wheel_radius_m: f64,
+    /// Gravitational acceleration (m/s²).
+    pub gravity_m_per_s2: f64,
+    /// Which wheel carries the flat.
+    pub flat_wheel: WheelPosition,
+}
+
+/// Wheel–rail contact (MODEL.md §4).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactParams {
+    /// Hertz constant C_H in `F = C_H·δ^1.5` (N/m^1.5). When omitted it follows from the
+    /// wheel radius: `C_H = G^-1.5`, `G = 4.57·R_w^-0.149 × 10^-8 m/N^(2/3)`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hertz_constant_n_per_m1_5: Option<f64>,
+}
+
+/// Train speed and where the run starts (MODEL.md §1).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunParams {
+    /// Constant train speed (km/h).
+    pub speed_km_per_h: f64,
+    /// Position of the leading wheel at t = 0 (m from the left rail end).
+    pub leading_wheel_start_m: f64,
+}
+
+/// One rail-pad force sensor.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PadSensor {
+    /// Short name used in column headers and on the command line, e.g. `rps2`.
+    pub name: String,
+    /// Index k of the sleeper it sits on (sleeper k is at `k · sleeper_spacing_m`).
+    pub sleeper: usize,
+}
+
+/// Sensor layout (MODEL.md §1).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorParams {
+    /// Position of the laser trigger that records each wheel's passing time (m).
+    pub laser_trigger_m: f64,
+    /// The rail-pad sensors.
+    pub pad: Vec<PadSensor>,
+}
+
+/// Output sampling (MODEL.md §6).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputParams {
+    /// Output sample rate (Hz).
+    pub sample_rate_hz: f64,
+    /// Samples in each sensor's window. The window is centred on the instant the bogie
+    /// centre passes over the sensor, so both wheels' passages are inside it.
+    pub window_samples: usize,
+}
+
+/// Time integration and mesh (chosen by the convergence study in the README).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IntegrationParams {
+    /// Timoshenko beam elements per sleeper bay.
+    pub elements_per_bay: usize,
+    /// Coarse (flat-free) Newmark steps per output sample: `dt_coarse = 1/(rate·this)`.
+    pub coarse_steps_per_sample: usize,
+    /// Fine steps per coarse step around each flat strike: `dt_fine = dt_coarse/this`.
+    pub fine_steps_per_coarse: usize,
+    /// Fine stepping starts this long before the flat starts to strike (s).
+    pub fine_before_strike_s: f64,
+    /// Fine stepping continues this long after the flat has passed (s), covering the
+    /// landing impact after a loss of contact and the P1 ringing.
+    pub fine_after_strike_s: f64,
+}
+
+/// Parameter ranges of the model population (MODEL.md §5, paper Table 1).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PopulationParams {
+    /// Flat length L range (mm).
+    pub length_mm: [f64; 2],
+    /// Flat depth d range (mm).
+    pub depth_mm: [f64; 2],
+    /// Curvature parameter c range (mm); each instance also honours c < d/2.
+    pub curvature_mm: [f64; 2],
+    /// Impact position X_p range (m).
+    pub impact_position_m: [f64; 2],
+}
+
+/// The calibration document. Units are in the key names; see MODEL.md for the meaning.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Calibration {
+    /// Rail, pads, sleepers, ballast.
+    pub track: TrackParams,
+    /// Half bogie.
+    pub vehicle: VehicleParams,
+    /// Wheel–rail contact.
+    pub contact: ContactParams,
+    /// Speed and start position.
+    pub run: RunParams,
+    /// Sensor layout.
+    pub sensors: SensorParams,
+    /// Output sampling.
+    pub output: OutputParams,
+    /// Mesh and time step.
+    pub integration: IntegrationParams,
+    /// Population ranges for the bank.
+    pub population: PopulationParams,
+}
+
+impl Default for Calibration {
+    /// The MODEL.md defaults (metro vehicle, ballasted track with timber sleepers).
+    fn default() -> Self {
+        let pad = [
+            ("rps1", 19),
+            ("rps2", 18),
+            ("rps3", 17),
+            ("rps4", 16),
+            ("rps5", 15),
+        ]
+        .into_iter()
+        .map(|(name, sleeper)| PadSensor {
+            name: name.to_string(),
+            sleeper,
+        })
+        .collect();
+        Calibration {
+            track: TrackParams {
+                bays: 34,
+                sleeper_spacing_m: 0.7,
+                youngs_modulus_pa: 210e9,
+                shear_modulus_pa: 81e9,
+                rail_area_m2: 6.977e-3,
+                rail_second_moment_m4: 2.346e-5,
+                shear_coefficient: 0.40,
+                rail_density_kg_per_m3: 7850.0,
+                pad_stiffness_n_per_m: 150e6,
+                pad_damping_ns_per_m: 30e3,
+                sleeper_mass_kg: 45.0,
+                ballast_stiffness_n_per_m: 60e6,
+                ballast_damping_ns_per_m: 50e3,
+            },
+            vehicle: VehicleParams {
+                bogie_mass_kg: 1300.0,
+                bogie_pitch_inertia_kg_m2: 800.0,
+                wheel_mass_kg: 650.0,
+                primary_stiffness_n_per_m: 1.2e6,
+                primary_damping_ns_per_m: 12e3,
+                half_wheelbase_m: 1.25,
+                car_body_mass_kg: 7500.0,
+                wheel_radius_m: 0.400,
+                gravity_m_per_s2: 9.81,
+                flat_wheel: WheelPosition::Trailing,
+            },
+            contact: ContactParams {
+                hertz_constant_n_per_m1_5: None,
+            },
+            run: RunParams {
+                speed_km_per_h: 50.0,
+                leading_wheel_start_m: 6.0,
+            },
+            sensors: SensorParams {
+                laser_trigger_m: 14.2,
+                pad,
+            },
+            output: OutputParams {
+                sample_rate_hz: 2500.0,
+                window_samples: 1000,
+            },
+            integration: IntegrationParams {
+                elements_per_bay: 4,
+                coarse_steps_per_sample: 2,
+                fine_steps_per_coarse: 10,
+                fine_before_strike_s: 0.001,
+                fine_after_strike_s: 0.010,
+            },
+            population: PopulationParams {
+                length_mm: [10.0, 200.0],
+                depth_mm: [0.1, 1.0],
+                curvature_mm: [0.0, 0.5],
+                impact_position_m: [12.0, 13.0],
+            },
+        }
+    }
+}
+
+/// A calibration that passed [`Calibration::check`]; the physics only takes this type.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CheckedCalibration(Calibration);
+
+impl Deref for CheckedCalibration {
+    type Target = Calibration;
+    fn deref(&self) -> &Calibration {
+        &self.0
+    }
+}
+
+impl CheckedCalibration {
+    /// The underlying document (for printing or storing in bank metadata).
+    pub fn document(&self) -> &Calibration {
+        &self.0
+    }
+
+    /// Train speed (m/s).
+    pub fn speed_m_per_s(&self) -> f64 {
+        self.run.speed_km_per_h / 3.6
+    }
+
+    /// Rail length (m).
+    pub fn rail_length_m(&self) -> f64 {
+        self.track.bays as f64 * self.track.sleeper_spacing_m
+    }
+
+    /// Hertz constant C_H (N/m^1.5): the file's value, or `G^-1.5` with
+    /// `G = 4.57·R_w^-0.149 × 10^-8` (MODEL.md §4).
+    pub fn hertz_constant(&self) -> f64 {
+        self.contact.hertz_constant_n_per_m1_5.unwrap_or_else(|| {
+            let g = 4.57e-8 * self.vehicle.wheel_radius_m.powf(-0.149);
+            g.powf(-1.5)
+        })
+    }
+
+    /// Static load on each wheel (N): `(M_c + M_b + 2·M_w)·g / 2`.
+    pub fn static_wheel_load_n(&self) -> f64 {
+        let v = &self.vehicle;
+        (v.car_body_mass_kg + v.bogie_mass_kg + 2.0 * v.wheel_mass_kg) * v.gravity_m_per_s2 / 2.0
+    }
+
+    /// Coarse time step (s).
+    pub fn dt_coarse_s(&self) -> f64 {
+        1.0 / (self.output.sample_rate_hz * self.integration.coarse_steps_per_sample as f64)
+    }
+
+    /// Fine time step (s).
+    pub fn dt_fine_s(&self) -> f64 {
+        self.dt_coarse_s() / self.integration.fine_steps_per_coarse as f64
+    }
+
+    /// Position of sensor `i` along the rail (m).
+    pub fn sensor_position_m(&self, i: usize) -> f64 {
+        self.sensors.pad[i].sleeper as f64 * self.track.sleeper_spacing_m
+    }
+
+    /// Index of the sensor called `name`, if any.
+    pub fn sensor_index(&self, name: &str) -> Option<usize> {
+        self.sensors.pad.iter().position(|s| s.name == name)
+    }
+
+    /// First output sample index (global, `t = k / rate`) of sensor `i`'s window: the window
+    /// is centred on the instant the bogie centre passes over the sensor.
+    pub fn window_start_sample(&self, i: usize) -> usize {
+        let centre_start_m = self.run.leading_wheel_start_m - self.vehicle.half_wheelbase_m;
+        let t_centre = (self.sensor_position_m(i) - centre_start_m) / self.speed_m_per_s();
+        let k_centre = (t_centre * self.output.sample_rate_hz).round() as i64;
+        let start = k_centre - (self.output.window_samples / 2) as i64;
+        // check() guarantees start >= 0.
+        start.max(0) as usize
+    }
+
+    /// One past the last global output sample index that any window needs.
+    pub fn end_sample(&self) -> usize {
+        (0..self.sensors.pad.len())
+            .map(|i| self.window_start_sample(i) + self.output.window_samples)
+            .max()
+            .unwrap_or(0)
+    }
+}
+
+impl Calibration {
+    /// Parses a TOML document (no checking beyond syntax and key names).
+    pub fn from_toml_str(text: &str) -> Result<Calibration, CalibrationError> {
+        Ok(toml::from_str(text)?)
+    }
+
+    /// The document as TOML, with a header comment.
+    pub fn to_toml_string(&self) -> String {
+        let body = toml::to_string_pretty(self).expect("calibration always serialises");
+        format!(
+            "# wheelflat calibration: train-track model, sensors, sampling, integration and\n\
+             # population ranges. Units are in the key names (SI, except speed in km/h and\n\
+             # flat sizes in mm). Defaults follow MODEL.md; see the README for each key.\n\
+             # contact.hertz_constant_n_per_m1_5, when absent, is computed from the wheel radius.\n\n{body}"
+        )
+    }
+
+    /// Checks every value once and returns the validated form.
+    pub fn check(self) -> Result<CheckedCalibration, CalibrationError> {
+        let t = &self.track;
+        positive("track.bays", t.bays as f64)?;
+        positive("track.sleeper_spacing_m", t.sleeper_spacing_m)?;
+        positive("track.youngs_modulus_pa", t.youngs_modulus_pa)?;
+        positive("track.shear_modulus_pa", t.shear_modulus_pa)?;
+        positive("track.rail_area_m2", t.rail_area_m2)?;
+        positive("track.rail_second_moment_m4", t.rail_second_moment_m4)?;
+        positive("track.shear_coefficient", t.shear_coefficient)?;
+        at_most("track.shear_coefficient", t.shear_coefficient, 1.0)?;
+        positive("track.rail_density_kg_per_m3", t.rail_density_kg_per_m3)?;
+        positive("track.pad_stiffness_n_per_m", t.pad_stiffness_n_per_m)?;
+        non_negative("track.pad_damping_ns_per_m", t.pad_damping_ns_per_m)?;
+        positive("track.sleeper_mass_kg", t.sleeper_mass_kg)?;
+        positive(
+            "track.ballast_stiffness_n_per_m",
+            t.ballast_stiffness_n_per_m,
+        )?;
+        non_negative("track.ballast_damping_ns_per_m", t.ballast_damping_ns_per_m)?;
+        if t.bays < 2 {
+            return Err(invalid("track.bays", t.bays, "at least 2 bays are needed"));
+        }
+
+        let v = &self.vehicle;
+        positive("vehicle.bogie_mass_kg", v.bogie_mass_kg)?;
+        positive(
+            "vehicle.bogie_pitch_inertia_kg_m2",
+            v.bogie_pitch_inertia_kg_m2,
+        )?;
+        positive("vehicle.wheel_mass_kg", v.wheel_mass_kg)?;
+        positive(
+            "vehicle.primary_stiffness_n_per_m",
+            v.primary_stiffness_n_per_m,
+        )?;
+        non_negative(
+            "vehicle.primary_damping_ns_per_m",
+            v.primary_damping_ns_per_m,
+        )?;
+        positive("vehicle.half_wheelbase_m", v.half_wheelbase_m)?;
+        non_negative("vehicle.car_body_mass_kg", v.car_body_mass_kg)?;
+        positive("vehicle.wheel_radius_m", v.wheel_radius_m)?;
+        positive("vehicle.gravity_m_per_s2", v.gravity_m_per_s2)?;
+        if let Some(ch) = self.contact.hertz_constant_n_per_m1_5 {
+            positive("contact.hertz_constant_n_per_m1_5", ch)?;
+        }
+
+        positive("run.speed_km_per_h", self.run.speed_km_per_h)?;
+        let rail_m = t.bays as f64 * t.sleeper_spacing_m;
+        finite("run.leading_wheel_start_m", self.run.leading_wheel_start_m)?;
+        let trailing_start = self.run.leading_wheel_start_m - 2.0 * v.half_wheelbase_m;
+        if trailing_start <= 0.0 || self.run.leading_wheel_start_m >= rail_m {
+            return Err(invalid(
+                "run.leading_wheel_start_m",
+                self.run.leading_wheel_start_m,
+                &format!(
+                    "both wheels must start on the rail (0, {rail_m} m); the trailing wheel would be at {trailing_start} m"
+                ),
+            ));
+        }
+
+        finite("sensors.laser_trigger_m", self.sensors.laser_trigger_m)?;
+        if self.sensors.laser_trigger_m <= 0.0 || self.sensors.laser_trigger_m >= rail_m {
+            return Err(invalid(
+                "sensors.laser_trigger_m",
+                self.sensors.laser_trigger_m,
+                &format!("must lie on the rail (0, {rail_m} m)"),
+            ));
+        }
+        if self.sensors.pad.is_empty() {
+            return Err(invalid(
+                "sensors.pad",
+                "[]",
+                "at least one sensor is needed",
+            ));
+        }
+        for (i, s) in self.sensors.pad.iter().enumerate() {
+            let key = format!("sensors.pad[{i}].sleeper");
+            if s.sleeper == 0 || s.sleeper >= t.bays {
+                return Err(invalid(
+                    &key,
+                    s.sleeper,
+                    &format!(
+                        "sensor `{}` must sit on a sleeper 1..={} of the modelled rail",
+                        s.name,
+                        t.bays - 1
+                    ),
+                ));
+            }
+            let name_ok = !s.name.is_empty()
+                && s.name
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '_');
+            if !name_ok {
+                return Err(invalid(
+                    &format!("sensors.pad[{i}].name"),
+                    format!("{:?}", s.name),
+                    "names are non-empty and use letters, digits and '_' only",
+                ));
+            }
+            if self.sensors.pad[..i].iter().any(|o| o.name == s.name) {
+                return Err(invalid(
+                    &format!("sensors.pad[{i}].name"),
+                    format!("{:?}", s.name),
+                    "duplicate sensor name",
+                ));
+            }
+        }
+
+        positive("output.sample_rate_hz", self.output.sample_rate_hz)?;
+        positive("output.window_samples", self.output.window_samples as f64)?;
+
+        let n = &self.integration;
+        positive("integration.elements_per_bay", n.elements_per_bay as f64)?;
+        positive(
+            "integration.coarse_steps_per_sample",
+            n.coarse_steps_per_sample as f64,
+        )?;
+        positive(
+            "integration.fine_steps_per_coarse",
+            n.fine_steps_per_coarse as f64,
+        )?;
+        non_negative("integration.fine_before_strike_s", n.fine_before_strike_s)?;
+        non_negative("integration.fine_after_strike_s", n.fine_after_strike_s)?;
+
+        let p = &self.population;
+        range("population.length_mm", p.length_mm, 0.0)?;
+        range("population.depth_mm", p.depth_mm, 0.0)?;
+        range("population.curvature_mm", p.curvature_mm, -1.0)?;
+        non_negative("population.curvature_mm[0]", p.curvature_mm[0])?;
+        range("population.impact_position_m", p.impact_position_m, -1.0)?;
+
+        let checked = CheckedCalibration(self);
+        // Windows: each must start at t >= 0 and end while the leading wheel is still on the rail.
+        let rate = checked.output.sample_rate_hz;
+        let half = checked.output.window_samples / 2;
+        let centre_start_m = checked.run.leading_wheel_start_m - checked.vehicle.half_wheelbase_m;
+        for i in 0..checked.sensors.pad.len() {
+            let t_centre =
+                (checked.sensor_position_m(i) - centre_start_m) / checked.speed_m_per_s();
+            if (t_centre * rate).round() < half as f64 {
+                return Err(invalid(
+                    "output.window_samples",
+                    checked.output.window_samples,
+                    &format!(
+                        "the window of sensor `{}` would start before t = 0; shorten the window or start the train further back",
+                        checked.sensors.pad[i].name
+                    ),
+                ));
+            }
+        }
+        let t_end = checked.end_sample() as f64 / rate;
+        let lead_end = checked.run.leading_wheel_start_m + checked.speed_m_per_s() * t_end;
+        if lead_end >= rail_m {
+            return Err(invalid(
+                "output.window_samples",
+                checked.output.window_samples,
+                &format!(
+                    "at the end of the last window (t = {t_end:.3} s) the leading wheel would be at {lead_end:.2} m, past the rail end at {rail_m} m"
+                ),
+            ));
+        }
+        Ok(checked)
+    }
+}
+
+fn invalid(key: &str, value: impl std::fmt::Display, reason: &str) -> CalibrationError {
+    CalibrationError::Invalid {
+        key: key.to_string(),
+        value: value.to_string(),
+        reason: reason.to_string(),
+    }
+}
+
+fn finite(key: &str, v: f64) -> Result<(), CalibrationError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(invalid(key, v, "must be a finite number"))
+    }
+}
+
+fn positive(key: &str, v: f64) -> Result<(), CalibrationError> {
+    finite(key, v)?;
+    if v > 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(key, v, "must be positive"))
+    }
+}
+
+fn non_negative(key: &str, v: f64) -> Result<(), CalibrationError> {
+    finite(key, v)?;
+    if v >= 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(key, v, "must not be negative"))
+    }
+}
+
+fn at_most(key: &str, v: f64, max: f64) -> Result<(), CalibrationError> {
+    if v <= max {
+        Ok(())
+    } else {
+        Err(invalid(key, v, &format!("must be at most {max}")))
+    }
+}
+
+/// A `[lo, hi]` range with `lo <= hi` and `lo > floor`.
+fn range(key: &str, r: [f64; 2], floor: f64) -> Result<(), CalibrationError> {
+    finite(key, r[0])?;
+    finite(key, r[1])?;
+    if r[0] <= floor {
+        return Err(invalid(
+            key,
+            format!("{:?}", r),
+            &format!("the lower bound must exceed {floor}"),
+        ));
+    }
+    if r[0] > r[1] {
+        return Err(invalid(
+            key,
+            format!("{:?}", r),
+            "the lower bound exceeds the upper bound",
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_pass_and_round_trip_through_toml() {
+        let c = Calibration::default();
+        let text = c.to_toml_string();
+        let back = Calibration::from_toml_str(&text).unwrap();
+        assert_eq!(back, c);
+        back.check().unwrap();
+    }
+
+    #[test]
+    fn default_static_wheel_load_is_about_49_5_kn() {
+        let c = Calibration::default().check().unwrap();
+        assert!((c.static_wheel_load_n() - 49_540.5).abs() < 1.0);
+        // MODEL.md §4: C_H ≈ 8.3e10 N/m^1.5 for R_w = 0.4 m.
+        assert!(
+            (c.hertz_constant() / 8.3e10 - 1.0).abs() < 0.01,
+            "{}",
+            c.hertz_constant()
+        );
+    }
+
+    #[test]
+    fn negative_mass_is_rejected_naming_key_and_value() {
+        let mut c = Calibration::default();
+        c.vehicle.wheel_mass_kg = -650.0;
+        let msg = c.check().unwrap_err().to_string();
+        assert!(msg.contains("vehicle.wheel_mass_kg"), "{msg}");
+        assert!(msg.contains("-650"), "{msg}");
+    }
+
+    #[test]
+    fn sensor_outside_the_rail_is_rejected() {
+        let mut c = Calibration::default();
+        c.sensors.pad[0].sleeper = 40;
+        let msg = c.check().unwrap_err().to_string();
+        assert!(
+            msg.contains("sensors.pad[0].sleeper") && msg.contains("40"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn unknown_key_is_a_parse_error_with_its_position() {
+        let text = Calibration::default()
+            .to_toml_string()
+            .replace("bays = 34", "bayz = 34");
+        let msg = Calibration::from_toml_str(&text).unwrap_err().to_string();
+        assert!(msg.contains("bayz") && msg.contains("line"), "{msg}");
+    }
+
+    #[test]
+    fn window_past_the_rail_end_is_rejected() {
+        let mut c = Calibration::default();
+        c.output.window_samples = 20_000;
+        assert!(c
+            .check()
+            .unwrap_err()
+            .to_string()
+            .contains("output.window_samples"));
+    }
+}

@@ -1,0 +1,603 @@
+//! Time integration of the coupled train–track system.
+//!
+//! Newmark average acceleration (β = 1/4, γ = 1/2: unconditionally stable, no numerical
+//! damping, energy-conserving for linear systems) on the track and the vehicle, with the
+//! two nonlinear Hertz contacts solved implicitly at the end of every step.
+//!
+//! Per step, with `ũ = u + dt·v + dt²/4·a`, `ṽ = v + dt/2·a`:
+//!
+//! `(M + dt/2·C + dt²/4·K)·a_{n+1} = f_{n+1} − C·ṽ − K·ũ`
+//!
+//! The track and the vehicle are linear, so their end-of-step state is the contact-free
+//! prediction plus the contact forces times precomputed compliances. That leaves two
+//! scalar unknowns per step (the contact forces), solved by Newton in
+//! [`solve_contact_pair`]. The effective matrices are factored once per time-step size.
+//!
+//! Two step sizes are used: a coarse one where the wheels roll on round tread, a fine one
+//! from shortly before each flat strike until well after the landing impact (the zones are
+//! settings of the calibration, chosen by the convergence study in the README).
+//!
+//! The stepper fills caller-provided buffers and allocates nothing per step; parallelism
+//! over instances lives one level up.
+
+use super::banded::{BandError, BandedLdl};
+use super::calibration::CheckedCalibration;
+use super::contact::{hertz_compression, solve_contact_pair};
+use super::flat::Flat;
+use super::track::{Support, TrackModel};
+use super::vehicle::{mul4, wheel, VehicleModel};
+use thiserror::Error;
+
+/// Errors of the simulator.
+#[derive(Debug, Error)]
+pub enum SimError {
+    /// A system matrix failed to factor (a calibration with a singular or indefinite model).
+    #[error("the track model cannot be factored: {0}")]
+    Singular(#[from] BandError),
+    /// The state became non-finite.
+    #[error("integration diverged at t = {time_s} s")]
+    StepDiverged {
+        /// Time of the first non-finite state.
+        time_s: f64,
+    },
+    /// The flat is longer than the wheel circumference.
+    #[error("flat length {length_mm} mm exceeds the wheel circumference {circumference_mm} mm")]
+    FlatTooLong {
+        /// Flat length (mm).
+        length_mm: f64,
+        /// Wheel circumference (mm).
+        circumference_mm: f64,
+    },
+}
+
+/// Factored matrices for one time-step size.
+#[derive(Debug, Clone)]
+struct StepLevel {
+    dt: f64,
+    ldl: BandedLdl,
+    /// Dense inverse of the track's effective matrix (symmetric, row `i` at `i*n`).
+    a_inv: Vec<f64>,
+    veh_inv: [[f64; 4]; 4],
+}
+
+/// Which step size to take.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Level {
+    /// The coarse step (round wheel rolling).
+    Coarse,
+    /// The fine step (flat strike and impact).
+    Fine,
+}
+
+/// Full dynamic state of track and vehicle at one instant.
+#[derive(Debug, Clone, PartialEq)]
+pub struct State {
+    /// Time (s).
+    pub time_s: f64,
+    /// Track displacements, velocities, accelerations.
+    pub u: Vec<f64>,
+    /// Track velocities.
+    pub v: Vec<f64>,
+    /// Track accelerations.
+    pub a: Vec<f64>,
+    /// Vehicle displacements `[z_b, φ, z_w1, z_w2]`.
+    pub q: [f64; 4],
+    /// Vehicle velocities.
+    pub qd: [f64; 4],
+    /// Vehicle accelerations.
+    pub qdd: [f64; 4],
+    /// Contact forces `[leading, trailing]` (N, compression positive).
+    pub contact_n: [f64; 2],
+}
+
+/// Scratch buffers for [`Simulator::step`]; make one per thread and reuse it.
+#[derive(Debug, Clone)]
+pub struct Workspace {
+    ut: Vec<f64>,
+    vt: Vec<f64>,
+    r: Vec<f64>,
+}
+
+/// What to record besides the pad forces.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Record {
+    /// Also record the two wheel–rail contact forces at the output rate.
+    pub contact: bool,
+}
+
+/// Output of one run: pad forces at the output rate over the span of all sensor windows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Response {
+    /// Output sample rate (Hz).
+    pub sample_rate_hz: f64,
+    /// Global index of the first stored sample (`t = k / rate`).
+    pub first_sample: usize,
+    /// Pad force per sensor (calibration order), N, compression positive.
+    pub pad_force_n: Vec<Vec<f64>>,
+    /// Contact forces `[leading, trailing]` at the output rate, when recorded (N).
+    pub contact_force_n: Option<[Vec<f64>; 2]>,
+    /// Largest contact force of each wheel over all integration steps (N).
+    pub peak_contact_force_n: [f64; 2],
+    /// Total time each wheel spent out of contact (s).
+    pub contact_loss_s: [f64; 2],
+    /// Times at which the flat starts to strike (s).
+    pub strike_times_s: Vec<f64>,
+    /// Integration steps taken `[coarse, fine]`.
+    pub steps: [usize; 2],
+}
+
+impl Response {
+    /// Number of stored samples.
+    pub fn len(&self) -> usize {
+        self.pad_force_n.first().map_or(0, Vec::len)
+    }
+
+    /// True when no samples are stored.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Time of stored sample `j` (s).
+    pub fn time_s(&self, j: usize) -> f64 {
+        (self.first_sample + j) as f64 / self.sample_rate_hz
+    }
+
+    /// The window of sensor `i` (its own time axis starts at global sample `start`).
+    pub fn window(&self, i: usize, start: usize, len: usize) -> &[f64] {
+        let off = start - self.first_sample;
+        &self.pad_force_n[i][off..off + len]
+    }
+}
+
+/// A ready-to-run simulator for one calibration: matrices assembled and factored once,
+/// shared (read-only) by every instance simulated with it.
+#[derive(Debug, Clone)]
+pub struct Simulator {
+    cal: CheckedCalibration,
+    track: TrackModel,
+    vehicle: VehicleModel,
+    coarse: StepLevel,
+    fine: StepLevel,
+    c_entries: Vec<(usize, usize, f64)>,
+    sensor_dofs: Vec<(usize, usize)>,
+    c_h: f64,
+    speed: f64,
+    wheel_start: [f64; 2],
+    wheel_radius: f64,
+    first_sample: usize,
+    end_sample: usize,
+}
+
+impl Simulator {
+    /// Assembles and factors the model of a calibration.
+    pub fn new(cal: &CheckedCalibration) -> Result<Simulator, SimError> {
+        let track = TrackModel::new(cal, cal.integration.elements_per_bay, Support::Elastic);
+        let vehicle = VehicleModel::new(cal);
+        let coarse = Self::level(&track, &vehicle, cal.dt_coarse_s())?;
+        let fine = Self::level(&track, &vehicle, cal.dt_fine_s())?;
+        let n = track.dofs();
+        let mut c_entries = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                let v = track.c.get(i, j);
+                if v != 0.0 {
+                    c_entries.push((i, j, v));
+                }
+            }
+        }
+        let sensor_dofs = cal
+            .sensors
+            .pad
+            .iter()
+            .map(|s| {
+                track
+                    .pad_dofs(s.sleeper)
+                    .expect("checked calibration puts sensors on sleepers")
+            })
+            .collect();
+        let lead = cal.run.leading_wheel_start_m;
+        let first_sample = (0..cal.sensors.pad.len())
+            .map(|i| cal.window_start_sample(i))
+            .min()
+            .unwrap_or(0);
+        Ok(Simulator {
+            c_h: cal.hertz_constant(),
+            speed: cal.speed_m_per_s(),
+            wheel_start: [lead, lead - 2.0 * cal.vehicle.half_wheelbase_m],
+            wheel_radius: cal.vehicle.wheel_radius_m,
+            first_sample,
+            end_sample: cal.end_sample(),
+            cal: cal.clone(),
+            track,
+            vehicle,
+            coarse,
+            fine,
+            c_entries,
+            sensor_dofs,
+        })
+    }
+
+    fn level(track: &TrackModel, vehicle: &VehicleModel, dt: f64) -> Result<StepLevel, SimError> {
+        let eff = track
+            .m
+            .add_scaled(0.5 * dt, &track.c)
+            .add_scaled(0.25 * dt * dt, &track.k);
+        let ldl = eff.factor()?;
+        let n = track.dofs();
+        let mut a_inv = vec![0.0; n * n];
+        let mut col = vec![0.0; n];
+        for j in 0..n {
+            col.fill(0.0);
+            col[j] = 1.0;
+            ldl.solve_in_place(&mut col);
+            for i in 0..n {
+                a_inv[i * n + j] = col[i];
+            }
+        }
+        Ok(StepLevel {
+            dt,
+            ldl,
+            a_inv,
+            veh_inv: vehicle.effective_inverse(dt),
+        })
+    }
+
+    /// The calibration this simulator was built for.
+    pub fn calibration(&self) -> &CheckedCalibration {
+        &self.cal
+    }
+
+    /// The assembled track.
+    pub fn track(&self) -> &TrackModel {
+        &self.track
+    }
+
+    /// The vehicle model.
+    pub fn vehicle(&self) -> &VehicleModel {
+        &self.vehicle
+    }
+
+    /// A workspace sized for this model.
+    pub fn workspace(&self) -> Workspace {
+        let n = self.track.dofs();
+        Workspace {
+            ut: vec![0.0; n],
+            vt: vec![0.0; n],
+            r: vec![0.0; n],
+        }
+    }
+
+    /// Positions of the two wheels at time `t` (m).
+    #[inline]
+    pub fn wheel_positions(&self, t: f64) -> [f64; 2] {
+        [
+            self.wheel_start[0] + self.speed * t,
+            self.wheel_start[1] + self.speed * t,
+        ]
+    }
+
+    /// Flat trajectory `z_tr` under each wheel at time `t`.
+    #[inline]
+    fn trajectories(&self, flat: Option<&Flat>, x: [f64; 2]) -> [f64; 2] {
+        let mut z = [0.0; 2];
+        if let Some(f) = flat {
+            let w = self.cal.vehicle.flat_wheel.index();
+            z[w] = f.trajectory(x[w], self.wheel_radius);
+        }
+        z
+    }
+
+    /// Static equilibrium with the wheels at `x` and flat drops `z_tr` (no dynamics):
+    /// each wheel carries the static load `W` (the bogie is symmetric), the rail solves
+    /// `K·u = Σ N_iᵀ·W`, the Hertz springs are compressed by `(W/C_H)^(2/3)`.
+    pub fn static_state(&self, x: [f64; 2], z_tr: [f64; 2]) -> Result<State, SimError> {
+        let w = self.cal.static_wheel_load_n();
+        let n = self.track.dofs();
+        let mut u = vec![0.0; n];
+        for &xi in &x {
+            let (idx, sh) = self.track.locate(xi);
+            for a in 0..4 {
+                if idx[a] != usize::MAX {
+                    u[idx[a]] += sh[a] * w;
+                }
+            }
+        }
+        self.track.k.factor()?.solve_in_place(&mut u);
+        let delta = hertz_compression(self.c_h, w);
+        let wheels: [f64; 2] = std::array::from_fn(|i| {
+            let rail =
+                self.track.deflection_at(&u, x[i]) + self.track.interior_compliance_at(x[i]) * w;
+            rail + delta + z_tr[i]
+        });
+        Ok(State {
+            time_s: 0.0,
+            u,
+            v: vec![0.0; n],
+            a: vec![0.0; n],
+            q: self.vehicle.static_state(wheels),
+            qd: [0.0; 4],
+            qdd: [0.0; 4],
+            contact_n: [w, w],
+        })
+    }
+
+    /// The state at t = 0: static equilibrium with the wheels at their start positions.
+    pub fn initial_state(&self, flat: Option<&Flat>) -> Result<State, SimError> {
+        let x = self.wheel_positions(0.0);
+        self.static_state(x, self.trajectories(flat, x))
+    }
+
+    /// Advances `state` by one step of the given level, with the wheels at `x` and the flat
+    /// drops `z_tr` at the end of the step.
+    pub fn step(
+        &self,
+        level: Level,
+        state: &mut State,
+        ws: &mut Workspace,
+        x: [f64; 2],
+        z_tr: [f64; 2],
+    ) {
+        let lv = match level {
+            Level::Coarse => &self.coarse,
+            Level::Fine => &self.fine,
+        };
+        let dt = lv.dt;
+        let b = 0.25 * dt * dt;
+        let g = 0.5 * dt;
+        let n = self.track.dofs();
+
+        // Track: predictors and the contact-free acceleration a*.
+        for i in 0..n {
+            ws.ut[i] = state.u[i] + dt * state.v[i] + b * state.a[i];
+            ws.vt[i] = state.v[i] + g * state.a[i];
+        }
+        self.track.k.mul_vec(&ws.ut, &mut ws.r);
+        for &(i, j, c) in &self.c_entries {
+            ws.r[i] += c * ws.vt[j];
+        }
+        for r in ws.r.iter_mut() {
+            *r = -*r;
+        }
+        lv.ldl.solve_in_place(&mut ws.r); // ws.r = a*
+
+        // Vehicle: predictors and contact-free acceleration.
+        let ut_v: [f64; 4] =
+            std::array::from_fn(|i| state.q[i] + dt * state.qd[i] + b * state.qdd[i]);
+        let vt_v: [f64; 4] = std::array::from_fn(|i| state.qd[i] + g * state.qdd[i]);
+        let ku = mul4(&self.vehicle.k, &ut_v);
+        let cv = mul4(&self.vehicle.c, &vt_v);
+        let rv: [f64; 4] = std::array::from_fn(|i| self.vehicle.load[i] - ku[i] - cv[i]);
+        let av_free = mul4(&lv.veh_inv, &rv);
+
+        // Contact: free compression and the 2×2 compliance over the step.
+        let loc = [self.track.locate(x[0]), self.track.locate(x[1])];
+        let mut delta_free = [0.0; 2];
+        let mut comp = [[0.0; 2]; 2];
+        for i in 0..2 {
+            let (idx, sh) = &loc[i];
+            let mut w_free = 0.0;
+            for a in 0..4 {
+                if idx[a] != usize::MAX {
+                    w_free += sh[a] * (ws.ut[idx[a]] + b * ws.r[idx[a]]);
+                }
+            }
+            let z_free = ut_v[wheel(i)] + b * av_free[wheel(i)];
+            delta_free[i] = z_free - w_free - z_tr[i];
+            for j in 0..2 {
+                let (jdx, shj) = &loc[j];
+                let mut h = 0.0;
+                for a in 0..4 {
+                    if idx[a] == usize::MAX {
+                        continue;
+                    }
+                    let row = &lv.a_inv[idx[a] * n..(idx[a] + 1) * n];
+                    for c in 0..4 {
+                        if jdx[c] != usize::MAX {
+                            h += sh[a] * row[jdx[c]] * shj[c];
+                        }
+                    }
+                }
+                comp[i][j] = b * (h + lv.veh_inv[wheel(i)][wheel(j)]);
+            }
+            comp[i][i] += self.track.interior_compliance_at(x[i]);
+        }
+        let f = solve_contact_pair(self.c_h, delta_free, comp);
+
+        // Final accelerations: a = a* + A⁻¹·Σ N_iᵀ F_i, vehicle a = a_v* − B⁻¹·Σ e_i F_i.
+        for i in 0..2 {
+            if f[i] == 0.0 {
+                continue;
+            }
+            let (idx, sh) = &loc[i];
+            for a in 0..4 {
+                if idx[a] == usize::MAX {
+                    continue;
+                }
+                let s = sh[a] * f[i];
+                let row = &lv.a_inv[idx[a] * n..(idx[a] + 1) * n];
+                for (r, col) in ws.r.iter_mut().zip(row) {
+                    *r += s * col;
+                }
+            }
+        }
+        let mut av = av_free;
+        for (r, avr) in av.iter_mut().enumerate() {
+            *avr -= lv.veh_inv[r][wheel(0)] * f[0] + lv.veh_inv[r][wheel(1)] * f[1];
+        }
+
+        for i in 0..n {
+            state.a[i] = ws.r[i];
+            state.u[i] = ws.ut[i] + b * ws.r[i];
+            state.v[i] = ws.vt[i] + g * ws.r[i];
+        }
+        for i in 0..4 {
+            state.qdd[i] = av[i];
+            state.q[i] = ut_v[i] + b * av[i];
+            state.qd[i] = vt_v[i] + g * av[i];
+        }
+        state.contact_n = f;
+        state.time_s += dt;
+    }
+
+    /// Total mechanical energy (J) of a state with the wheels at `x`: kinetic + strain of the
+    /// track and suspension + Hertz potential `2/5·C_H·δ^2.5` − work potential of the constant
+    /// vehicle loads. Conserved by [`Simulator::step`] when all dampers are zero and the
+    /// wheels do not move.
+    pub fn energy(&self, s: &State, x: [f64; 2], z_tr: [f64; 2]) -> f64 {
+        let n = self.track.dofs();
+        let mut tmp = vec![0.0; n];
+        self.track.m.mul_vec(&s.v, &mut tmp);
+        let kinetic_track: f64 = 0.5 * s.v.iter().zip(&tmp).map(|(a, b)| a * b).sum::<f64>();
+        self.track.k.mul_vec(&s.u, &mut tmp);
+        let strain_track: f64 = 0.5 * s.u.iter().zip(&tmp).map(|(a, b)| a * b).sum::<f64>();
+        let kinetic_veh: f64 = (0..4)
+            .map(|i| 0.5 * self.vehicle.mass[i] * s.qd[i] * s.qd[i])
+            .sum();
+        let kq = mul4(&self.vehicle.k, &s.q);
+        let strain_veh: f64 = 0.5 * (0..4).map(|i| s.q[i] * kq[i]).sum::<f64>();
+        let load: f64 = (0..4).map(|i| self.vehicle.load[i] * s.q[i]).sum();
+        let hertz: f64 = (0..2)
+            .map(|i| {
+                // Hertz spring plus the (massless) element interior in series with it.
+                let d = s.q[wheel(i)] - self.track.deflection_at(&s.u, x[i]) - z_tr[i];
+                let f = s.contact_n[i];
+                let g = self.track.interior_compliance_at(x[i]);
+                if f > 0.0 {
+                    0.4 * self.c_h * hertz_compression(self.c_h, f).powf(2.5) + 0.5 * g * f * f
+                } else {
+                    debug_assert!(d <= 0.0 || g > 0.0);
+                    0.0
+                }
+            })
+            .sum();
+        kinetic_track + strain_track + kinetic_veh + strain_veh + hertz - load
+    }
+
+    /// Compression of each Hertz spring in `state` with the wheels at `x` (m): wheel
+    /// displacement minus the rail deflection under it (nodal interpolation plus the element
+    /// interior's deflection under the contact force) minus the flat's drop.
+    pub fn compression(&self, s: &State, x: [f64; 2], z_tr: [f64; 2]) -> [f64; 2] {
+        std::array::from_fn(|i| {
+            let interior = self.track.interior_compliance_at(x[i]) * s.contact_n[i];
+            s.q[wheel(i)] - self.track.deflection_at(&s.u, x[i]) - interior - z_tr[i]
+        })
+    }
+
+    /// Time windows (s) in which fine steps are taken: around every strike of the flat.
+    fn fine_zones(&self, flat: &Flat, t_end: f64) -> (Vec<f64>, Vec<(f64, f64)>) {
+        let w = self.cal.vehicle.flat_wheel.index();
+        let x0 = self.wheel_start[w];
+        let x1 = x0 + self.speed * t_end;
+        let strikes = flat.strikes_between(x0, x1, self.wheel_radius);
+        let integ = &self.cal.integration;
+        let times: Vec<f64> = strikes.iter().map(|xs| (xs - x0) / self.speed).collect();
+        let zones = times
+            .iter()
+            .map(|t| {
+                (
+                    t - integ.fine_before_strike_s,
+                    t + flat.length_m() / self.speed + integ.fine_after_strike_s,
+                )
+            })
+            .collect();
+        (times, zones)
+    }
+
+    /// Simulates one instance (a flat, or a good wheel with `None`) from static equilibrium at
+    /// t = 0 to the end of the last sensor window.
+    pub fn run(&self, flat: Option<&Flat>, record: Record) -> Result<Response, SimError> {
+        let mut ws = self.workspace();
+        self.run_with(flat, record, &mut ws)
+    }
+
+    /// [`Simulator::run`] with a caller-provided workspace.
+    pub fn run_with(
+        &self,
+        flat: Option<&Flat>,
+        record: Record,
+        ws: &mut Workspace,
+    ) -> Result<Response, SimError> {
+        if let Some(f) = flat {
+            let circumference = std::f64::consts::TAU * self.wheel_radius;
+            if f.length_m() >= circumference {
+                return Err(SimError::FlatTooLong {
+                    length_mm: f.length_m() * 1e3,
+                    circumference_mm: circumference * 1e3,
+                });
+            }
+        }
+        let nc = self.cal.integration.coarse_steps_per_sample;
+        let nf = self.cal.integration.fine_steps_per_coarse;
+        let dt_c = self.coarse.dt;
+        let samples = self.end_sample - self.first_sample;
+        let t_end = self.end_sample as f64 / self.cal.output.sample_rate_hz;
+        let (strike_times_s, zones) = match flat {
+            Some(f) => self.fine_zones(f, t_end),
+            None => (Vec::new(), Vec::new()),
+        };
+
+        let mut resp = Response {
+            sample_rate_hz: self.cal.output.sample_rate_hz,
+            first_sample: self.first_sample,
+            pad_force_n: vec![Vec::with_capacity(samples); self.sensor_dofs.len()],
+            contact_force_n: record
+                .contact
+                .then(|| [Vec::with_capacity(samples), Vec::with_capacity(samples)]),
+            peak_contact_force_n: [0.0; 2],
+            contact_loss_s: [0.0; 2],
+            strike_times_s,
+            steps: [0, 0],
+        };
+        let mut state = self.initial_state(flat)?;
+        let observe = |state: &State, k: usize, resp: &mut Response| {
+            if k < self.first_sample || k >= self.end_sample {
+                return;
+            }
+            for (out, &dofs) in resp.pad_force_n.iter_mut().zip(&self.sensor_dofs) {
+                out.push(self.track.pad_force(dofs, &state.u, &state.v));
+            }
+            if let Some(c) = resp.contact_force_n.as_mut() {
+                c[0].push(state.contact_n[0]);
+                c[1].push(state.contact_n[1]);
+            }
+        };
+        observe(&state, 0, &mut resp);
+        let track_peaks = |state: &State, dt: f64, resp: &mut Response| {
+            for w in 0..2 {
+                resp.peak_contact_force_n[w] = resp.peak_contact_force_n[w].max(state.contact_n[w]);
+                if state.contact_n[w] == 0.0 {
+                    resp.contact_loss_s[w] += dt;
+                }
+            }
+        };
+        let total_coarse = self.end_sample * nc;
+        let dt_f = self.fine.dt;
+        for j in 0..total_coarse {
+            let (t0, t1) = (j as f64 * dt_c, (j + 1) as f64 * dt_c);
+            let fine = zones.iter().any(|&(a, b)| a < t1 && b > t0);
+            if fine {
+                for m in 0..nf {
+                    let t = ((j * nf + m + 1) as f64) * dt_f;
+                    let x = self.wheel_positions(t);
+                    self.step(Level::Fine, &mut state, ws, x, self.trajectories(flat, x));
+                    state.time_s = t;
+                    track_peaks(&state, dt_f, &mut resp);
+                }
+                resp.steps[1] += nf;
+            } else {
+                let x = self.wheel_positions(t1);
+                self.step(Level::Coarse, &mut state, ws, x, self.trajectories(flat, x));
+                state.time_s = t1;
+                track_peaks(&state, dt_c, &mut resp);
+                resp.steps[0] += 1;
+            }
+            if (j + 1) % nc == 0 {
+                if !state.q[wheel(0)].is_finite() || !state.u.iter().all(|u| u.is_finite()) {
+                    return Err(SimError::StepDiverged { time_s: t1 });
+                }
+                observe(&state, (j + 1) / nc, &mut resp);
+            }
+        }
+        Ok(resp)
+    }
+}

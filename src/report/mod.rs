@@ -1,0 +1,5 @@
+//! Plots and tables for people.
+
+pub mod plot;
+
+pub use plot::{draw_pad_forces, PadForcePlot, PlotError, Series};

@@ -1,0 +1,812 @@
+//! Rail-pad force plots: the measured (or simulated) force at each rail-pad sensor
+//! against time, with the instants at which the wheel flat strikes the rail, and
+//! optionally the wheel–rail contact forces in a second panel.
+//!
+//! Output is PNG or SVG, chosen by the file extension, and is written atomically: the
+//! figure is drawn to a hidden temporary file next to the target and renamed into place,
+//! so a reader never sees a half-written plot.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::OnceLock;
+
+use plotters::coord::Shift;
+use plotters::element::DashedPathElement;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use plotters::style::{register_font, FontStyle};
+
+/// The embedded font, registered as the `sans-serif` family (there is no system font lookup).
+static FONT_BYTES: &[u8] = include_bytes!(concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/assets/DejaVuSans.ttf"
+));
+
+/// Font family used for every text in the plots.
+const FONT: &str = "sans-serif";
+
+/// Figure size without the contact panel (pixels, also the SVG view box).
+const SIZE_SINGLE: (u32, u32) = (1400, 800);
+/// Figure size with the contact-force panel below.
+const SIZE_WITH_CONTACT: (u32, u32) = (1400, 1100);
+
+/// Distinct line colours (the matplotlib "tab10" palette).
+const PALETTE: [RGBColor; 10] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+];
+
+/// Colour of the dashed flat-strike markers.
+const STRIKE_COLOUR: RGBColor = RGBColor(60, 60, 60);
+
+/// Errors from drawing a plot. Every variant names the file that was to be written.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The path does not end in `.png` or `.svg`.
+    #[error("{}: unsupported plot format (the file name must end in .png or .svg)", path.display())]
+    UnsupportedExtension {
+        /// The requested output path.
+        path: PathBuf,
+    },
+    /// The data cannot be plotted (empty or non-finite time axis, mismatched lengths).
+    #[error("{}: cannot plot the data: {message}", path.display())]
+    InvalidData {
+        /// The requested output path.
+        path: PathBuf,
+        /// What is wrong with the data.
+        message: String,
+    },
+    /// The embedded font could not be registered with the plotting library.
+    #[error("{}: the embedded font assets/DejaVuSans.ttf could not be loaded", path.display())]
+    Font {
+        /// The requested output path.
+        path: PathBuf,
+    },
+    /// The plotting library failed while drawing or encoding the figure.
+    #[error("{}: drawing the plot failed: {message}", path.display())]
+    Draw {
+        /// The requested output path.
+        path: PathBuf,
+        /// The plotting library's error message.
+        message: String,
+    },
+    /// Writing or renaming the output file failed.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file being written (the target, or its temporary sibling).
+        path: PathBuf,
+        /// The underlying I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// One force signal to plot, e.g. one rail-pad sensor.
+#[derive(Debug, Clone, Copy)]
+pub struct Series<'a> {
+    /// Legend label, e.g. `"rps1"`.
+    pub label: &'a str,
+    /// Force in kN, one value per entry of the plot's time axis. Non-finite values leave
+    /// a gap in the line.
+    pub values_kn: &'a [f64],
+}
+
+/// A rail-pad force figure: forces at each sensor against time (top panel), and
+/// optionally the wheel–rail contact forces (bottom panel).
+#[derive(Debug, Clone)]
+pub struct PadForcePlot<'a> {
+    /// Figure title.
+    pub title: &'a str,
+    /// Common time axis in s; every series has the same length. Must be non-empty and finite.
+    pub time_s: &'a [f64],
+    /// One series per rail-pad sensor, e.g. `"rps1"` … `"rps5"`, drawn in distinct colours.
+    pub series: Vec<Series<'a>>,
+    /// Instants (s) at which the wheel flat strikes the rail; drawn as thin dashed vertical
+    /// lines (legend entry "flat strike"). Instants outside the time axis are skipped.
+    pub strike_times_s: &'a [f64],
+    /// Optional wheel–rail contact forces in kN of the (leading, trailing) wheel on the same
+    /// time axis, drawn in a second panel below the rail-pad forces.
+    pub contact_kn: Option<[&'a [f64]; 2]>,
+}
+
+/// Output format, from the file extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Format {
+    Png,
+    Svg,
+}
+
+impl Format {
+    fn of(path: &Path) -> Option<Self> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "png" => Some(Self::Png),
+            "svg" => Some(Self::Svg),
+            _ => None,
+        }
+    }
+
+    fn extension(self) -> &'static str {
+        match self {
+            Self::Png => "png",
+            Self::Svg => "svg",
+        }
+    }
+}
+
+/// One line of a panel: label, values, colour.
+struct Curve<'a> {
+    label: &'a str,
+    values: &'a [f64],
+    colour: RGBColor,
+}
+
+/// One panel of the figure.
+struct Panel<'a> {
+    y_label: &'a str,
+    curves: Vec<Curve<'a>>,
+}
+
+/// Draws `plot` to `path`: a PNG (1400×800, or 1400×1100 with the contact panel) when the
+/// path ends in `.png`, an SVG of the same size when it ends in `.svg`.
+///
+/// The top panel shows the rail-pad force (kN) of every sensor against time (s) with a
+/// legend, its y range running from `min(0, smallest value)` to 1.1 × the largest value;
+/// the flat strikes inside the time range are marked by dashed vertical lines. With
+/// [`PadForcePlot::contact_kn`] a bottom panel shows the leading and trailing wheel–rail
+/// contact forces.
+///
+/// The file is written atomically (temporary sibling, then rename); on error no file and
+/// no temporary are left behind, and an existing file at `path` is untouched.
+///
+/// # Errors
+/// [`PlotError::UnsupportedExtension`] for other extensions (nothing is written),
+/// [`PlotError::InvalidData`] for an empty or non-finite time axis or a series whose length
+/// differs from it, [`PlotError::Font`], [`PlotError::Draw`] or [`PlotError::Io`] when
+/// drawing or writing fails.
+pub fn draw_pad_forces(plot: &PadForcePlot, path: &Path) -> Result<(), PlotError> {
+    let format = Format::of(path).ok_or_else(|| PlotError::UnsupportedExtension {
+        path: path.to_path_buf(),
+    })?;
+    validate(plot).map_err(|message| PlotError::InvalidData {
+        path: path.to_path_buf(),
+        message,
+    })?;
+    if !ensure_font() {
+        return Err(PlotError::Font {
+            path: path.to_path_buf(),
+        });
+    }
+
+    let size = if plot.contact_kn.is_some() {
+        SIZE_WITH_CONTACT
+    } else {
+        SIZE_SINGLE
+    };
+    let tmp = temp_path(path, format)?;
+    let result = match format {
+        Format::Png => draw_png(plot, &tmp, size),
+        Format::Svg => draw_svg(plot, &tmp, size),
+    }
+    .and_then(|()| {
+        fs::rename(&tmp, path).map_err(|source| PlotError::Io {
+            path: path.to_path_buf(),
+            source,
+        })
+    });
+    if result.is_err() {
+        // Best effort: the temporary may not exist if drawing failed before saving.
+        let _ = fs::remove_file(&tmp);
+    }
+    result.map_err(|e| match e {
+        // Report drawing failures against the requested path, not the temporary.
+        PlotError::Draw { message, .. } => PlotError::Draw {
+            path: path.to_path_buf(),
+            message,
+        },
+        other => other,
+    })
+}
+
+/// Registers the embedded font once; returns whether it is available.
+fn ensure_font() -> bool {
+    static REGISTERED: OnceLock<bool> = OnceLock::new();
+    *REGISTERED.get_or_init(|| register_font(FONT, FontStyle::Normal, FONT_BYTES).is_ok())
+}
+
+/// Checks lengths and the time axis; the message says what is wrong.
+fn validate(plot: &PadForcePlot) -> Result<(), String> {
+    let n = plot.time_s.len();
+    if n == 0 {
+        return Err("the time axis is empty".into());
+    }
+    if plot.time_s.iter().any(|t| !t.is_finite()) {
+        return Err("the time axis contains non-finite values".into());
+    }
+    for s in &plot.series {
+        if s.values_kn.len() != n {
+            return Err(format!(
+                "series {:?} has {} values but the time axis has {n}",
+                s.label,
+                s.values_kn.len()
+            ));
+        }
+    }
+    if let Some(contact) = plot.contact_kn {
+        for (name, values) in ["leading", "trailing"].iter().zip(contact) {
+            if values.len() != n {
+                return Err(format!(
+                    "the {name} contact force has {} values but the time axis has {n}",
+                    values.len()
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A hidden temporary sibling of `path` that keeps the extension (the PNG encoder picks
+/// the format from it), unique within this process.
+fn temp_path(path: &Path, format: Format) -> Result<PathBuf, PlotError> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let name = path
+        .file_name()
+        .ok_or_else(|| PlotError::UnsupportedExtension {
+            path: path.to_path_buf(),
+        })?
+        .to_string_lossy();
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let tmp_name = format!(
+        ".{name}.tmp-{}-{n}.{}",
+        std::process::id(),
+        format.extension()
+    );
+    Ok(path.parent().unwrap_or(Path::new("")).join(tmp_name))
+}
+
+/// Draws into a PNG file at `tmp`.
+fn draw_png(plot: &PadForcePlot, tmp: &Path, size: (u32, u32)) -> Result<(), PlotError> {
+    let draw_err = |message: String| PlotError::Draw {
+        path: tmp.to_path_buf(),
+        message,
+    };
+    let root = BitMapBackend::new(tmp, size).into_drawing_area();
+    render(&root, plot).map_err(draw_err)?;
+    root.present().map_err(|e| draw_err(e.to_string()))
+}
+
+/// Draws an SVG into memory, then writes it to `tmp`.
+fn draw_svg(plot: &PadForcePlot, tmp: &Path, size: (u32, u32)) -> Result<(), PlotError> {
+    let draw_err = |message: String| PlotError::Draw {
+        path: tmp.to_path_buf(),
+        message,
+    };
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+        render(&root, plot).map_err(draw_err)?;
+        root.present().map_err(|e| draw_err(e.to_string()))?;
+    }
+    fs::write(tmp, svg).map_err(|source| PlotError::Io {
+        path: tmp.to_path_buf(),
+        source,
+    })
+}
+
+/// Draws the whole figure on `root`.
+fn render<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    plot: &PadForcePlot,
+) -> Result<(), String> {
+    root.fill(&WHITE).map_err(msg)?;
+    let body = root
+        .margin(12, 0, 0, 0)
+        .titled(plot.title, (FONT, 30).into_font().color(&BLACK))
+        .map_err(msg)?;
+
+    let (t_min, t_max) = min_max(plot.time_s.iter().copied()).unwrap_or((0.0, 1.0));
+    let (t_min, t_max) = if t_max > t_min {
+        (t_min, t_max)
+    } else {
+        (t_min - 0.5, t_max + 0.5)
+    };
+    let strikes: Vec<f64> = plot
+        .strike_times_s
+        .iter()
+        .copied()
+        .filter(|t| t.is_finite() && *t >= t_min && *t <= t_max)
+        .collect();
+
+    let pads = Panel {
+        y_label: "rail-pad force (kN)",
+        curves: plot
+            .series
+            .iter()
+            .enumerate()
+            .map(|(i, s)| Curve {
+                label: s.label,
+                values: s.values_kn,
+                colour: PALETTE[i % PALETTE.len()],
+            })
+            .collect(),
+    };
+    let contact = plot.contact_kn.map(|[leading, trailing]| Panel {
+        y_label: "contact force (kN)",
+        curves: vec![
+            Curve {
+                label: "leading wheel",
+                values: leading,
+                colour: PALETTE[0],
+            },
+            Curve {
+                label: "trailing wheel",
+                values: trailing,
+                colour: PALETTE[3],
+            },
+        ],
+    });
+
+    // One legend column, as wide as the longest label of either panel, so that the
+    // panels' time axes line up.
+    let font = legend_font();
+    let mut widest = if strikes.is_empty() {
+        0
+    } else {
+        text_width(&body, STRIKE_LABEL, &font)?
+    };
+    for curve in pads
+        .curves
+        .iter()
+        .chain(contact.iter().flat_map(|p| &p.curves))
+    {
+        widest = widest.max(text_width(&body, curve.label, &font)?);
+    }
+    let legend_width =
+        LEGEND_INSET + LEGEND_PAD + LEGEND_SAMPLE + LEGEND_GAP + widest + LEGEND_PAD + LEGEND_INSET;
+
+    match &contact {
+        None => draw_panel(
+            &body,
+            plot.time_s,
+            (t_min, t_max),
+            &pads,
+            &strikes,
+            legend_width,
+        ),
+        Some(contact) => {
+            let (_, h) = body.dim_in_pixel();
+            let (top, bottom) = body.split_vertically(h * 62 / 100);
+            draw_panel(
+                &top,
+                plot.time_s,
+                (t_min, t_max),
+                &pads,
+                &strikes,
+                legend_width,
+            )?;
+            draw_panel(
+                &bottom,
+                plot.time_s,
+                (t_min, t_max),
+                contact,
+                &strikes,
+                legend_width,
+            )
+        }
+    }
+}
+
+/// Legend label of the strike markers.
+const STRIKE_LABEL: &str = "flat strike";
+/// Legend layout (pixels): gap on either side of the legend box, inner padding, length of the
+/// line sample, gap between sample and label, height of one entry.
+const LEGEND_INSET: u32 = 10;
+const LEGEND_PAD: u32 = 12;
+const LEGEND_SAMPLE: u32 = 32;
+const LEGEND_GAP: u32 = 10;
+const LEGEND_ROW: u32 = 28;
+/// Top margin of each panel's chart (the legend box is aligned with it).
+const PANEL_MARGIN_TOP: u32 = 10;
+
+/// Style of the legend labels.
+fn legend_font() -> TextStyle<'static> {
+    TextStyle::from((FONT, 18).into_font()).color(&BLACK)
+}
+
+/// Width in pixels of `text` set in `font`.
+fn text_width<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    text: &str,
+    font: &TextStyle,
+) -> Result<u32, String> {
+    area.estimate_text_size(text, font)
+        .map(|(w, _)| w)
+        .map_err(msg)
+}
+
+/// One legend entry: label, line style, dashed or solid.
+struct LegendEntry<'a> {
+    label: &'a str,
+    style: ShapeStyle,
+    dashed: bool,
+}
+
+/// Draws one panel: axes, curves, strike markers, and its legend in a column on the right
+/// (outside the axes, so it never hides a force peak).
+fn draw_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    time: &[f64],
+    (t_min, t_max): (f64, f64),
+    panel: &Panel,
+    strikes: &[f64],
+    legend_width: u32,
+) -> Result<(), String> {
+    let (w, _) = area.dim_in_pixel();
+    let (chart_area, legend_area) = area.split_horizontally(w.saturating_sub(legend_width));
+    let (y_min, y_max) = force_range(panel.curves.iter().map(|c| c.values));
+    let mut chart = ChartBuilder::on(&chart_area)
+        .margin_top(PANEL_MARGIN_TOP)
+        .margin_bottom(10)
+        .margin_left(15)
+        .margin_right(10)
+        .x_label_area_size(60)
+        .y_label_area_size(90)
+        .build_cartesian_2d(t_min..t_max, y_min..y_max)
+        .map_err(msg)?;
+    chart
+        .configure_mesh()
+        .x_desc("time (s)")
+        .y_desc(panel.y_label)
+        .x_labels(12)
+        .y_labels(8)
+        .label_style((FONT, 18))
+        .axis_desc_style((FONT, 22))
+        .light_line_style(RGBColor(235, 235, 235))
+        .bold_line_style(RGBColor(205, 205, 205))
+        .draw()
+        .map_err(msg)?;
+
+    let mut legend = Vec::with_capacity(panel.curves.len() + 1);
+    for curve in &panel.curves {
+        let style = ShapeStyle::from(&curve.colour).stroke_width(2);
+        chart
+            .draw_series(
+                finite_runs(time, curve.values)
+                    .into_iter()
+                    .map(move |run| PathElement::new(run, style)),
+            )
+            .map_err(msg)?;
+        legend.push(LegendEntry {
+            label: curve.label,
+            style,
+            dashed: false,
+        });
+    }
+
+    if !strikes.is_empty() {
+        let style = ShapeStyle::from(&STRIKE_COLOUR).stroke_width(1);
+        chart
+            .draw_series(
+                strikes
+                    .iter()
+                    .map(|&t| DashedPathElement::new(vec![(t, y_min), (t, y_max)], 6, 4, style)),
+            )
+            .map_err(msg)?;
+        legend.push(LegendEntry {
+            label: STRIKE_LABEL,
+            style,
+            dashed: true,
+        });
+    }
+
+    draw_legend(&legend_area, &legend)
+}
+
+/// Draws a boxed legend at the top of `area`.
+fn draw_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    entries: &[LegendEntry],
+) -> Result<(), String> {
+    if entries.is_empty() {
+        return Ok(());
+    }
+    let (w, _) = area.dim_in_pixel();
+    let left = LEGEND_INSET as i32;
+    let right = w.saturating_sub(LEGEND_INSET) as i32;
+    let top = PANEL_MARGIN_TOP as i32;
+    let bottom = top + (LEGEND_PAD + LEGEND_ROW * entries.len() as u32) as i32;
+    area.draw(&Rectangle::new(
+        [(left, top), (right, bottom)],
+        ShapeStyle::from(&RGBColor(120, 120, 120)).stroke_width(1),
+    ))
+    .map_err(msg)?;
+    let text_style = legend_font().pos(Pos::new(HPos::Left, VPos::Center));
+    let x0 = left + LEGEND_PAD as i32;
+    let x1 = x0 + LEGEND_SAMPLE as i32;
+    for (i, entry) in entries.iter().enumerate() {
+        let y = top + (LEGEND_PAD / 2 + LEGEND_ROW * i as u32 + LEGEND_ROW / 2) as i32;
+        if entry.dashed {
+            area.draw(&DashedPathElement::new(
+                vec![(x0, y), (x1, y)],
+                6,
+                4,
+                entry.style,
+            ))
+        } else {
+            area.draw(&PathElement::new(vec![(x0, y), (x1, y)], entry.style))
+        }
+        .map_err(msg)?;
+        area.draw(&Text::new(
+            entry.label,
+            (x1 + LEGEND_GAP as i32, y),
+            text_style.clone(),
+        ))
+        .map_err(msg)?;
+    }
+    Ok(())
+}
+
+/// The y range of a force panel: `min(0, smallest)` to 1.1 × the largest finite value,
+/// widened when degenerate.
+fn force_range<'a>(curves: impl Iterator<Item = &'a [f64]>) -> (f64, f64) {
+    let Some((lo, hi)) = min_max(curves.flat_map(|v| v.iter().copied())) else {
+        return (0.0, 1.0);
+    };
+    let lo = lo.min(0.0);
+    let hi = if hi > 0.0 {
+        1.1 * hi
+    } else {
+        hi + 0.1 * hi.abs()
+    };
+    if hi > lo {
+        (lo, hi)
+    } else {
+        (lo, lo + 1.0)
+    }
+}
+
+/// Smallest and largest finite value, if any.
+fn min_max(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
+    values
+        .filter(|v| v.is_finite())
+        .fold(None, |acc, v| match acc {
+            None => Some((v, v)),
+            Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
+        })
+}
+
+/// The (t, value) points split into runs of finite values, so gaps break the line.
+fn finite_runs(time: &[f64], values: &[f64]) -> Vec<Vec<(f64, f64)>> {
+    let mut runs = Vec::new();
+    let mut run = Vec::new();
+    for (&t, &v) in time.iter().zip(values) {
+        if v.is_finite() {
+            run.push((t, v));
+        } else if !run.is_empty() {
+            runs.push(std::mem::take(&mut run));
+        }
+    }
+    if !run.is_empty() {
+        runs.push(run);
+    }
+    runs
+}
+
+/// Turns a plotters error into its message.
+fn msg(e: impl std::fmt::Display) -> String {
+    e.to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const N: usize = 200;
+
+    /// Synthetic pad forces: each sensor sees a sine-shaped bump as the wheels pass,
+    /// shifted by sensor, plus a small ripple.
+    fn synthetic() -> (Vec<f64>, Vec<Vec<f64>>, [Vec<f64>; 2]) {
+        let time: Vec<f64> = (0..N).map(|i| i as f64 * 0.01).collect();
+        let pads = (0..5)
+            .map(|k| {
+                time.iter()
+                    .map(|&t| {
+                        let phase = (t - 0.2 * k as f64) * std::f64::consts::PI / 0.6;
+                        let bump = if (0.0..std::f64::consts::PI).contains(&phase) {
+                            40.0 * phase.sin()
+                        } else {
+                            0.0
+                        };
+                        bump + 2.0 * (40.0 * t).sin()
+                    })
+                    .collect()
+            })
+            .collect();
+        let leading = time
+            .iter()
+            .map(|&t| 80.0 + 10.0 * (30.0 * t).sin())
+            .collect();
+        let trailing = time
+            .iter()
+            .map(|&t| 78.0 + 8.0 * (30.0 * t + 1.0).sin())
+            .collect();
+        (time, pads, [leading, trailing])
+    }
+
+    const LABELS: [&str; 5] = ["rps1", "rps2", "rps3", "rps4", "rps5"];
+    const STRIKES: [f64; 4] = [0.35, 0.95, 1.55, 5.0];
+
+    fn plot<'a>(
+        time: &'a [f64],
+        pads: &'a [Vec<f64>],
+        contact: Option<&'a [Vec<f64>; 2]>,
+    ) -> PadForcePlot<'a> {
+        PadForcePlot {
+            title: "Rail-pad forces, 20 mm flat at 100 km/h",
+            time_s: time,
+            series: pads
+                .iter()
+                .zip(LABELS)
+                .map(|(v, label)| Series {
+                    label,
+                    values_kn: v,
+                })
+                .collect(),
+            strike_times_s: &STRIKES,
+            contact_kn: contact.map(|[a, b]| [a.as_slice(), b.as_slice()]),
+        }
+    }
+
+    fn dir_entries(dir: &Path) -> Vec<String> {
+        let mut names: Vec<String> = fs::read_dir(dir)
+            .expect("read tempdir")
+            .map(|e| {
+                e.expect("dir entry")
+                    .file_name()
+                    .to_string_lossy()
+                    .into_owned()
+            })
+            .collect();
+        names.sort();
+        names
+    }
+
+    #[test]
+    fn png_is_written_atomically() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let (time, pads, _) = synthetic();
+        let path = dir.path().join("pads.png");
+        draw_pad_forces(&plot(&time, &pads, None), &path).expect("draw png");
+        let bytes = fs::read(&path).expect("read png");
+        assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "not a PNG");
+        assert!(bytes.len() > 10_000, "PNG only {} bytes", bytes.len());
+        assert_eq!(
+            dir_entries(dir.path()),
+            ["pads.png"],
+            "temporary left behind"
+        );
+    }
+
+    #[test]
+    fn png_with_contact_panel_is_taller() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let (time, pads, contact) = synthetic();
+        let path = dir.path().join("pads_contact.PNG");
+        draw_pad_forces(&plot(&time, &pads, Some(&contact)), &path).expect("draw png");
+        let bytes = fs::read(&path).expect("read png");
+        assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "not a PNG");
+        // IHDR: width and height are big-endian u32 at offsets 16 and 20.
+        let be =
+            |i: usize| u32::from_be_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
+        assert_eq!((be(16), be(20)), SIZE_WITH_CONTACT);
+        assert_eq!(dir_entries(dir.path()), ["pads_contact.PNG"]);
+    }
+
+    #[test]
+    fn svg_has_legend_labels() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let (time, pads, contact) = synthetic();
+        let path = dir.path().join("pads.svg");
+        draw_pad_forces(&plot(&time, &pads, Some(&contact)), &path).expect("draw svg");
+        let svg = fs::read_to_string(&path).expect("read svg");
+        assert!(svg.contains("<svg"));
+        for label in LABELS {
+            assert!(svg.contains(label), "legend label {label} missing");
+        }
+        for text in [
+            "flat strike",
+            "leading wheel",
+            "trailing wheel",
+            "rail-pad force (kN)",
+            "contact force (kN)",
+            "time (s)",
+        ] {
+            assert!(svg.contains(text), "{text} missing");
+        }
+        assert_eq!(dir_entries(dir.path()), ["pads.svg"]);
+    }
+
+    #[test]
+    fn strikes_outside_the_time_range_are_not_drawn() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let (time, pads, _) = synthetic();
+        let path = dir.path().join("pads.svg");
+        let mut p = plot(&time, &pads, None);
+        p.strike_times_s = &[-1.0, 5.0, f64::NAN];
+        draw_pad_forces(&p, &path).expect("draw svg");
+        let svg = fs::read_to_string(&path).expect("read svg");
+        assert!(!svg.contains("flat strike"));
+    }
+
+    #[test]
+    fn unknown_extension_writes_nothing() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let (time, pads, _) = synthetic();
+        for name in ["pads.pdf", "pads"] {
+            let path = dir.path().join(name);
+            let err = draw_pad_forces(&plot(&time, &pads, None), &path).unwrap_err();
+            assert!(
+                matches!(&err, PlotError::UnsupportedExtension { path: p } if *p == path),
+                "{err:?}"
+            );
+        }
+        assert!(dir_entries(dir.path()).is_empty());
+    }
+
+    #[test]
+    fn mismatched_lengths_are_rejected_and_write_nothing() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let (time, pads, contact) = synthetic();
+        let path = dir.path().join("pads.png");
+        let short = &contact[1][..N - 1];
+        let mut p = plot(&time, &pads, None);
+        p.contact_kn = Some([&contact[0], short]);
+        let err = draw_pad_forces(&p, &path).unwrap_err();
+        assert!(matches!(err, PlotError::InvalidData { .. }), "{err:?}");
+        let p = plot(&[], &[], None);
+        let err = draw_pad_forces(&p, &path).unwrap_err();
+        assert!(matches!(err, PlotError::InvalidData { .. }), "{err:?}");
+        assert!(dir_entries(dir.path()).is_empty());
+    }
+
+    #[test]
+    fn missing_directory_is_an_error_without_leftovers() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let (time, pads, _) = synthetic();
+        let path = dir.path().join("no_such_dir").join("pads.svg");
+        let err = draw_pad_forces(&plot(&time, &pads, None), &path).unwrap_err();
+        assert!(matches!(err, PlotError::Io { .. }), "{err:?}");
+        assert!(dir_entries(dir.path()).is_empty());
+    }
+
+    #[test]
+    fn force_range_starts_at_zero_and_pads_the_top() {
+        let a = [5.0, 10.0, f64::NAN];
+        let (lo, hi) = force_range([a.as_slice()].into_iter());
+        assert!(lo.abs() < 1e-12 && (hi - 11.0).abs() < 1e-12);
+        let b = [-3.0, 10.0];
+        let (lo, _) = force_range([b.as_slice()].into_iter());
+        assert!((lo + 3.0).abs() < 1e-12);
+        let (lo, hi) = force_range(std::iter::empty());
+        assert!(hi > lo);
+    }
+
+    #[test]
+    fn gaps_split_the_line() {
+        let t = [0.0, 1.0, 2.0, 3.0, 4.0];
+        let v = [1.0, f64::NAN, 2.0, 3.0, f64::INFINITY];
+        let runs = finite_runs(&t, &v);
+        assert_eq!(runs.len(), 2);
+        assert_eq!(runs[0].len(), 1);
+        assert_eq!(runs[1].len(), 2);
+    }
+}
