@@ -272,7 +272,7 @@ impl Default for Calibration {
             },
             integration: IntegrationParams {
                 elements_per_bay: 4,
-                coarse_steps_per_sample: 2,
+                coarse_steps_per_sample: 1,
                 fine_steps_per_coarse: 10,
                 fine_before_strike_s: 0.001,
                 fine_after_strike_s: 0.010,

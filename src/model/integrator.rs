@@ -20,7 +20,7 @@
 //! The stepper fills caller-provided buffers and allocates nothing per step; parallelism
 //! over instances lives one level up.
 
-use super::banded::{BandError, BandedLdl};
+use super::banded::{BandError, BandRows, BandedLdl};
 use super::calibration::CheckedCalibration;
 use super::contact::{hertz_compression, solve_contact_pair};
 use super::flat::Flat;
@@ -93,7 +93,8 @@ pub struct State {
 /// Scratch buffers for [`Simulator::step`]; make one per thread and reuse it.
 #[derive(Debug, Clone)]
 pub struct Workspace {
-    ut: Vec<f64>,
+    /// Track displacement predictor ũ, padded for the band product.
+    ut_padded: Vec<f64>,
     vt: Vec<f64>,
     r: Vec<f64>,
 }
@@ -159,6 +160,7 @@ pub struct Simulator {
     coarse: StepLevel,
     fine: StepLevel,
     c_entries: Vec<(usize, usize, f64)>,
+    k_rows: BandRows,
     sensor_dofs: Vec<(usize, usize)>,
     c_h: f64,
     speed: f64,
@@ -208,6 +210,7 @@ impl Simulator {
             first_sample,
             end_sample: cal.end_sample(),
             cal: cal.clone(),
+            k_rows: BandRows::from_sym(&track.k),
             track,
             vehicle,
             coarse,
@@ -260,8 +263,9 @@ impl Simulator {
     /// A workspace sized for this model.
     pub fn workspace(&self) -> Workspace {
         let n = self.track.dofs();
+        let pad = self.k_rows.padding();
         Workspace {
-            ut: vec![0.0; n],
+            ut_padded: vec![0.0; n + 2 * pad],
             vt: vec![0.0; n],
             r: vec![0.0; n],
         }
@@ -347,11 +351,14 @@ impl Simulator {
         let n = self.track.dofs();
 
         // Track: predictors and the contact-free acceleration a*.
-        for i in 0..n {
-            ws.ut[i] = state.u[i] + dt * state.v[i] + b * state.a[i];
-            ws.vt[i] = state.v[i] + g * state.a[i];
+        let pad = self.k_rows.padding();
+        let predictors = ws.ut_padded[pad..pad + n].iter_mut().zip(ws.vt.iter_mut());
+        for ((ut, vt), ((u, v), a)) in predictors.zip(state.u.iter().zip(&state.v).zip(&state.a)) {
+            *ut = u + dt * v + b * a;
+            *vt = v + g * a;
         }
-        self.track.k.mul_vec(&ws.ut, &mut ws.r);
+        self.k_rows.mul_padded(&ws.ut_padded, &mut ws.r);
+        let ut = &ws.ut_padded[pad..pad + n];
         for &(i, j, c) in &self.c_entries {
             ws.r[i] += c * ws.vt[j];
         }
@@ -378,7 +385,7 @@ impl Simulator {
             let mut w_free = 0.0;
             for a in 0..4 {
                 if idx[a] != usize::MAX {
-                    w_free += sh[a] * (ws.ut[idx[a]] + b * ws.r[idx[a]]);
+                    w_free += sh[a] * (ut[idx[a]] + b * ws.r[idx[a]]);
                 }
             }
             let z_free = ut_v[wheel(i)] + b * av_free[wheel(i)];
@@ -425,10 +432,15 @@ impl Simulator {
             *avr -= lv.veh_inv[r][wheel(0)] * f[0] + lv.veh_inv[r][wheel(1)] * f[1];
         }
 
-        for i in 0..n {
-            state.a[i] = ws.r[i];
-            state.u[i] = ws.ut[i] + b * ws.r[i];
-            state.v[i] = ws.vt[i] + g * ws.r[i];
+        let finals = state
+            .a
+            .iter_mut()
+            .zip(state.u.iter_mut())
+            .zip(state.v.iter_mut());
+        for (((a, u), v), ((r, ut), vt)) in finals.zip(ws.r.iter().zip(ut).zip(&ws.vt)) {
+            *a = *r;
+            *u = ut + b * r;
+            *v = vt + g * r;
         }
         for i in 0..4 {
             state.qdd[i] = av[i];

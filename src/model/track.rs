@@ -407,3 +407,57 @@ impl TrackModel {
         [section_k(0, 0), section_k(self.elements - 1, 2)]
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Calibration;
+
+    #[test]
+    fn quadrature_stiffness_equals_the_closed_form_timoshenko_element() {
+        let cal = Calibration::default().check().unwrap();
+        let s = RailSection::from_calibration(&cal);
+        for l in [0.0875, 0.175, 0.35, 0.7] {
+            let e = TimoshenkoElement::new(l, &s);
+            let (k, _) = e.matrices(&s);
+            let exact = e.segment_stiffness(l);
+            for a in 0..4 {
+                for b in 0..4 {
+                    let scale = exact[a][a].abs().max(exact[b][b].abs());
+                    assert!(
+                        (k[a][b] - exact[a][b]).abs() < 1e-10 * scale,
+                        "l {l} ({a},{b})"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn mass_matrix_carries_the_element_mass() {
+        // Rigid translation w = 1: uᵀ·M·u = ρA·l (rotary inertia does not act, ψ = 0).
+        let cal = Calibration::default().check().unwrap();
+        let s = RailSection::from_calibration(&cal);
+        let e = TimoshenkoElement::new(0.175, &s);
+        let (_, m) = e.matrices(&s);
+        let u = [1.0, 0.0, 1.0, 0.0];
+        let mass: f64 = (0..4)
+            .flat_map(|a| (0..4).map(move |b| (a, b)))
+            .map(|(a, b)| u[a] * m[a][b] * u[b])
+            .sum();
+        assert!((mass / (s.rho_a * 0.175) - 1.0).abs() < 1e-12, "{mass}");
+    }
+
+    #[test]
+    fn interior_compliance_vanishes_at_nodes_and_peaks_mid_element() {
+        let cal = Calibration::default().check().unwrap();
+        let s = RailSection::from_calibration(&cal);
+        let e = TimoshenkoElement::new(0.175, &s);
+        assert!(e.interior_compliance(0.0) == 0.0 && e.interior_compliance(1.0) == 0.0);
+        let mid = e.interior_compliance(0.5);
+        // Clamped–clamped beam, central load: l³/(192·EI) + l/(4·κGA).
+        let exact = 0.175f64.powi(3) / (192.0 * s.ei) + 0.175 / (4.0 * s.kga);
+        assert!((mid / exact - 1.0).abs() < 1e-9, "{mid} vs {exact}");
+        assert!((e.interior_compliance(0.3) - e.interior_compliance(0.7)).abs() < 1e-12 * mid);
+    }
+}
