@@ -1,13 +1,19 @@
 //! The `wheelflat` command line: a thin layer that parses arguments, reads and writes files,
 //! and calls the library. Errors carry context naming the file and value (anyhow).
 
+use crate::bank::{
+    self, Codec, GenerateObserver, GenerateOptions, Outcome, StorageFormat, ValueEncoding,
+};
 use crate::model::{Calibration, CheckedCalibration, Flat, Record, Response, Simulator};
 use crate::report::plot::{draw_pad_forces, PadForcePlot, Series};
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
+use std::io::IsTerminal;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
 use std::time::Instant;
 
 /// Wheel-flat identification from rail-pad forces, with uncertainties.
@@ -28,12 +34,86 @@ enum Command {
     },
     /// Simulate one train pass over the sensors and write the rail-pad forces.
     Simulate(SimulateArgs),
+    /// Build, inspect and check model banks.
+    Bank {
+        #[command(subcommand)]
+        command: BankCommand,
+    },
     /// Run the main job on built-in defaults and write its outputs to a folder.
     Demo {
         /// Output folder.
         #[arg(long, default_value = "wheelflat-demo")]
         out: PathBuf,
     },
+}
+
+#[derive(Debug, Subcommand)]
+enum BankCommand {
+    /// Simulate the whole population and store it as Parquet (resumes an interrupted run;
+    /// does nothing when the bank is up to date).
+    Generate(GenerateArgs),
+    /// Complete a bank built by `--shard` runs: check every shard file, write the manifest,
+    /// switch CURRENT. Simulates nothing.
+    Merge(GenerateArgs),
+    /// Show a bank's metadata, sizes and parameter ranges.
+    Info {
+        /// Bank directory.
+        dir: PathBuf,
+    },
+    /// Check every file of a bank against its manifest (size, SHA-256, footer).
+    Verify {
+        /// Bank directory.
+        dir: PathBuf,
+    },
+}
+
+#[derive(Debug, Args)]
+struct GenerateArgs {
+    /// Calibration file (TOML); the built-in defaults when omitted.
+    #[arg(long)]
+    calibration: Option<PathBuf>,
+    /// Instances in the population.
+    #[arg(long, default_value_t = 50_000)]
+    instances: usize,
+    /// Bank directory.
+    #[arg(long, default_value = "bank")]
+    out: PathBuf,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Build only part I of N (0-based), e.g. `--shard 3/10`, for a cluster job array.
+    #[arg(long, value_parser = parse_shard)]
+    shard: Option<(usize, usize)>,
+    /// Population seed (0: plain Hammersley).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Instances per shard file (the unit of resumable work).
+    #[arg(long, default_value_t = 2500)]
+    shard_size: usize,
+    /// Compression of the force columns.
+    #[arg(long, value_enum, default_value_t = Codec::None)]
+    compression: Codec,
+    /// Encoding of the force columns.
+    #[arg(long, value_enum, default_value_t = ValueEncoding::Plain)]
+    encoding: ValueEncoding,
+}
+
+fn parse_shard(s: &str) -> std::result::Result<(usize, usize), String> {
+    let (i, n) = s
+        .split_once('/')
+        .ok_or_else(|| format!("`{s}`: expected I/N, e.g. 0/4"))?;
+    let i: usize = i
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}`: I is not a number"))?;
+    let n: usize = n
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}`: N is not a number"))?;
+    if n == 0 || i >= n {
+        return Err(format!("`{s}`: need 0 <= I < N"));
+    }
+    Ok((i, n))
 }
 
 #[derive(Debug, Args)]
@@ -79,6 +159,12 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Calibration { out } => cmd_calibration(out.as_deref()),
         Command::Simulate(args) => cmd_simulate(&args),
+        Command::Bank { command } => match command {
+            BankCommand::Generate(a) => cmd_bank_generate(&a, true),
+            BankCommand::Merge(a) => cmd_bank_generate(&a, false),
+            BankCommand::Info { dir } => cmd_bank_info(&dir),
+            BankCommand::Verify { dir } => cmd_bank_verify(&dir),
+        },
         Command::Demo { out } => cmd_demo(&out),
     };
     match result {
@@ -318,4 +404,227 @@ fn cmd_demo(out: &Path) -> Result<()> {
         println!("wrote {} and {}", csv.display(), png.display());
     }
     Ok(())
+}
+
+/// Progress of a bank generation: an indicatif bar on a terminal, plain periodic log lines
+/// otherwise (cron, batch schedulers).
+struct Progress {
+    bar: Option<indicatif::ProgressBar>,
+    done: AtomicUsize,
+    total: AtomicUsize,
+    started: Instant,
+    last_log: Mutex<Instant>,
+}
+
+impl Progress {
+    fn new() -> Progress {
+        Progress {
+            bar: None,
+            done: AtomicUsize::new(0),
+            total: AtomicUsize::new(0),
+            started: Instant::now(),
+            last_log: Mutex::new(Instant::now()),
+        }
+    }
+
+    fn with_terminal(mut self) -> Progress {
+        if std::io::stderr().is_terminal() {
+            let bar = indicatif::ProgressBar::new(0);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} instances  {per_sec}  ETA {eta}",
+                )
+                .expect("valid template"),
+            );
+            self.bar = Some(bar);
+        }
+        self
+    }
+
+    fn log_line(&self) -> String {
+        let done = self.done.load(Ordering::Relaxed);
+        let total = self.total.load(Ordering::Relaxed).max(1);
+        let secs = self.started.elapsed().as_secs_f64();
+        let rate = done as f64 / secs.max(1e-9);
+        let eta = (total - done.min(total)) as f64 / rate.max(1e-9);
+        format!(
+            "bank: {done}/{total} instances ({:.1} %), {rate:.0} instances/s, ETA {:.0} s",
+            100.0 * done as f64 / total as f64,
+            eta
+        )
+    }
+}
+
+impl GenerateObserver for Progress {
+    fn started(&self, to_simulate: usize, already_done: usize) {
+        self.total.store(to_simulate, Ordering::Relaxed);
+        if already_done > 0 {
+            eprintln!("bank: resuming, {already_done} instances already on disk");
+        }
+        if let Some(b) = &self.bar {
+            b.set_length(to_simulate as u64);
+        } else if to_simulate > 0 {
+            eprintln!("bank: simulating {to_simulate} instances");
+        }
+    }
+
+    fn instance_done(&self) {
+        self.done.fetch_add(1, Ordering::Relaxed);
+        if let Some(b) = &self.bar {
+            b.inc(1);
+            return;
+        }
+        let mut last = self.last_log.lock().unwrap_or_else(|e| e.into_inner());
+        if last.elapsed().as_secs_f64() >= 10.0 {
+            *last = Instant::now();
+            eprintln!("{}", self.log_line());
+        }
+    }
+
+    fn file_written(&self, name: &str) {
+        match &self.bar {
+            Some(b) => b.println(format!("wrote {name}")),
+            None => eprintln!("bank: wrote {name}"),
+        }
+    }
+}
+
+fn cmd_bank_generate(a: &GenerateArgs, simulate_missing: bool) -> Result<()> {
+    let cal = load_calibration(a.calibration.as_deref())?;
+    let opts = GenerateOptions {
+        instances: a.instances,
+        seed: a.seed,
+        shard_size: a.shard_size,
+        machine_shard: a.shard,
+        format: StorageFormat {
+            codec: a.compression,
+            encoding: a.encoding,
+        },
+        simulate_missing,
+    };
+    let threads = a
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("cannot start the worker threads")?;
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create bank directory {}", a.out.display()))?;
+    let progress = Progress::new().with_terminal();
+    let started = Instant::now();
+    let outcome = pool.install(|| bank::generate(&cal, &a.out, &opts, &progress));
+    if let Some(b) = &progress.bar {
+        b.finish_and_clear();
+    }
+    let outcome = outcome.with_context(|| format!("bank {}", a.out.display()))?;
+    let secs = started.elapsed().as_secs_f64();
+    match outcome {
+        Outcome::UpToDate { version } => {
+            println!(
+                "bank {} is up to date ({}); nothing to do",
+                a.out.display(),
+                version.display()
+            );
+        }
+        Outcome::Complete {
+            version,
+            simulated,
+            resumed,
+        } => {
+            println!(
+                "bank complete: {} instances in {} ({simulated} simulated in {secs:.1} s, {:.0} instances/s on {threads} threads; {resumed} kept from an earlier run); CURRENT -> {}",
+                a.instances,
+                version.display(),
+                simulated as f64 / secs.max(1e-9),
+                version.file_name().map(|n| n.to_string_lossy()).unwrap_or_default()
+            );
+        }
+        Outcome::ShardDone {
+            version,
+            simulated,
+            files,
+        } => {
+            let (i, n) = a.shard.unwrap_or((0, 1));
+            println!(
+                "shard {i}/{n} done: {files} shard files in {} ({simulated} instances simulated in {secs:.1} s); run `wheelflat bank merge` with the same arguments when all shards are done",
+                version.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+fn cmd_bank_info(dir: &Path) -> Result<()> {
+    let b = bank::Bank::open(dir).with_context(|| format!("cannot open bank {}", dir.display()))?;
+    let m = b.metadata();
+    let bytes: u64 = b.manifest().files.iter().map(|f| f.bytes).sum();
+    println!("bank            {}", b.dir().display());
+    println!("bank id         {}", m.bank_id);
+    println!(
+        "format          {} ({}), model revision {}",
+        m.format_version, m.generator, m.model_revision
+    );
+    println!("calibration     sha256 {}", m.calibration_sha256);
+    println!(
+        "instances       {} in {} shard files of {}",
+        b.instances(),
+        b.manifest().files.len(),
+        m.shard_size
+    );
+    println!("sampling        {} (seed {})", m.sampling, m.seed);
+    println!(
+        "size            {:.1} MB, {:.1} kB per instance",
+        bytes as f64 / 1e6,
+        bytes as f64 / 1e3 / b.instances().max(1) as f64
+    );
+    println!("sensors         (force in {})", m.force_unit);
+    for s in &m.sensors {
+        println!(
+            "  {:<6} sleeper {:>2} at {:>6.2} m: {} samples at {} Hz from t = {:.4} s",
+            s.name, s.sleeper, s.position_m, s.samples, s.sample_rate_hz, s.t0_s
+        );
+    }
+    let p = b
+        .read_parameters()
+        .with_context(|| format!("reading parameters of {}", dir.display()))?;
+    let range = |v: &[f64]| {
+        v.iter()
+            .fold((f64::MAX, f64::MIN), |(lo, hi), &x| (lo.min(x), hi.max(x)))
+    };
+    println!("parameter ranges");
+    for (name, v) in [
+        ("length_mm", &p.length_mm),
+        ("depth_mm", &p.depth_mm),
+        ("curvature_mm", &p.curvature_mm),
+        ("impact_position_m", &p.impact_position_m),
+        ("l0_mm", &p.l0_mm),
+    ] {
+        let (lo, hi) = range(v);
+        println!("  {name:<18} [{lo:.4}, {hi:.4}]");
+    }
+    Ok(())
+}
+
+fn cmd_bank_verify(dir: &Path) -> Result<()> {
+    let (manifest, problems) =
+        bank::verify(dir).with_context(|| format!("cannot verify bank {}", dir.display()))?;
+    if problems.is_empty() {
+        println!(
+            "bank {} verified: {} files, {} instances, checksums match",
+            dir.display(),
+            manifest.files.len(),
+            manifest.instances
+        );
+        return Ok(());
+    }
+    for p in &problems {
+        eprintln!("{}: {}", p.path.display(), p.message);
+    }
+    anyhow::bail!(
+        "bank {} failed verification: {} of {} files bad",
+        dir.display(),
+        problems.len(),
+        manifest.files.len()
+    )
 }

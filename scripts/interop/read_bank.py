@@ -1,0 +1,50 @@
+#!/usr/bin/env python3
+"""Opens a wheelflat bank with pyarrow, the way an auditor would, and prints what it finds:
+row and column counts, the column names, and the wheelflat metadata (JSON under the
+`wheelflat.bank` key). Exits non-zero if anything is inconsistent.
+
+    python3 scripts/interop/read_bank.py BANK_DIR
+"""
+import json
+import pathlib
+import sys
+
+import pyarrow.dataset as ds
+import pyarrow.parquet as pq
+
+
+def main(bank: pathlib.Path) -> int:
+    version = bank / (bank / "CURRENT").read_text().strip() if (bank / "CURRENT").exists() else bank
+    manifest = json.loads((version / "manifest.json").read_text())
+    files = [str(version / f["name"]) for f in manifest["files"]]
+    dataset = ds.dataset(files, format="parquet")
+    table = dataset.to_table()
+    names = table.column_names
+    meta = json.loads(pq.ParquetFile(files[0]).metadata.metadata[b"wheelflat.bank"])
+    sensors = meta["sensors"]
+    expected = ["instance", "length_mm", "depth_mm", "curvature_mm", "impact_position_m", "l0_mm"]
+    for s in sensors:
+        width = max(4, len(str(s["samples"] - 1)))
+        expected += [f"{s['name']}_t{k:0{width}d}" for k in range(s["samples"])]
+    problems = []
+    if names != expected:
+        problems.append("column names differ from the metadata's sensors and samples")
+    if table.num_rows != manifest["instances"] or meta["instances"] != manifest["instances"]:
+        problems.append("row count differs from the manifest")
+    instances = table.column("instance").to_pylist()
+    if instances != list(range(table.num_rows)):
+        problems.append("instance column is not 0..N-1")
+    if str(table.schema.field(names[6]).type) != "float":
+        problems.append("sample columns are not float32")
+    print(f"rows {table.num_rows}")
+    print(f"columns {len(names)}")
+    print(f"first sample column {names[6]}")
+    print(f"metadata instances {meta['instances']} format {meta['format_version']} calibration {meta['calibration_sha256'][:12]}")
+    print(f"sensors {[s['name'] for s in sensors]}")
+    for p in problems:
+        print(f"problem: {p}")
+    return 1 if problems else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(pathlib.Path(sys.argv[1])))

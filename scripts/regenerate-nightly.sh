@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Nightly model-bank regeneration, for cron. Rebuilds the bank only when the calibration (or
+# the bank arguments, or the generator) changed: `bank generate` then builds the new version
+# beside the old one and switches CURRENT atomically when it is complete, so identification
+# keeps reading the old bank until then. An unchanged calibration is reported "up to date".
+# An interrupted run (reboot, kill) resumes the next night, keeping finished shard files.
+#
+#   scripts/regenerate-nightly.sh CALIBRATION.toml BANK_DIR [extra `bank generate` args]
+#
+# Environment: WHEELFLAT (the binary; default `wheelflat` on PATH).
+# Crontab line (01:15 every night, log appended):
+#   15 1 * * *  /opt/wheelflat/scripts/regenerate-nightly.sh /etc/wheelflat/track.toml /srv/wheelflat/bank >>/var/log/wheelflat-bank.log 2>&1
+set -euo pipefail
+calibration=${1:?usage: regenerate-nightly.sh CALIBRATION.toml BANK_DIR [args]}
+bank=${2:?usage: regenerate-nightly.sh CALIBRATION.toml BANK_DIR [args]}
+shift 2
+wheelflat=${WHEELFLAT:-wheelflat}
+
+mkdir -p "$bank"
+exec 9>"$bank/.regenerate.lock"
+if ! flock -n 9; then
+  echo "$(date -Is) another regeneration holds $bank/.regenerate.lock; skipping"
+  exit 0
+fi
+echo "$(date -Is) regenerating $bank from $calibration"
+"$wheelflat" bank generate --calibration "$calibration" --out "$bank" "$@"
+"$wheelflat" bank verify "$bank"
+echo "$(date -Is) done"

@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# Submits a bank build to Slurm: an array of N shard jobs, then the merge job that runs only
+# if every shard succeeded (afterok dependency).
+#   scripts/slurm/submit-bank.sh N CALIBRATION.toml BANK_DIR [extra `bank generate` args]
+# The extra args (e.g. --instances, --seed, --shard-size) must be the same for both steps:
+# they determine the bank's identity.
+set -euo pipefail
+n=${1:?number of shards}
+calibration=${2:?calibration file}
+bank=${3:?bank directory}
+shift 3
+here=$(cd "$(dirname "$0")" && pwd)
+array=$(sbatch --parsable --array="0-$((n - 1))" "$here/bank-array.sbatch" "$calibration" "$bank" "$@")
+merge=$(sbatch --parsable --dependency="afterok:${array}" "$here/bank-merge.sbatch" "$calibration" "$bank" "$@")
+echo "submitted shard array $array ($n tasks) and merge job $merge"

@@ -1,0 +1,354 @@
+//! Generating a bank: simulate every instance of the population in parallel (rayon, one level
+//! above the simulator), write shard files atomically, resume after interruption, write the
+//! manifest last and switch the bank's `CURRENT` pointer only when everything is in place.
+//!
+//! Directory layout of a bank `DIR`:
+//!
+//! ```text
+//! DIR/CURRENT                      name of the complete version readers use (atomic rename)
+//! DIR/v-<bank id>/shard-00000-of-00020.parquet
+//! DIR/v-<bank id>/...
+//! DIR/v-<bank id>/manifest.json    written last, with every file's size and SHA-256
+//! ```
+//!
+//! The bank id hashes everything that determines the bytes (calibration, N, seed, shard size,
+//! storage format, generator and model revision), so a changed calibration builds a new version
+//! beside the old one, and a rerun of the same arguments finds its own unfinished version.
+
+use super::population::Population;
+use super::schema::{
+    bank_id, calibration_sha256, sensor_axes, sha256_hex, BankMetadata, Manifest, ManifestFile,
+    ShardInfo, FORMAT_VERSION, MODEL_REVISION,
+};
+use super::writer::{write_shard, InstanceRow, StorageFormat};
+use super::BankError;
+use crate::model::{CheckedCalibration, Flat, Record, Simulator};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+
+/// Name of the pointer file in a bank directory.
+pub const CURRENT: &str = "CURRENT";
+/// Name of the manifest in a version directory.
+pub const MANIFEST: &str = "manifest.json";
+
+/// What to generate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GenerateOptions {
+    /// Instances in the whole bank.
+    pub instances: usize,
+    /// Population seed (0: plain Hammersley).
+    pub seed: u64,
+    /// Instances per shard file (the unit of resumable work).
+    pub shard_size: usize,
+    /// Only this machine's part: `(i, n)` takes shard files `[i·F/n, (i+1)·F/n)` of the F files.
+    pub machine_shard: Option<(usize, usize)>,
+    /// Encoding and compression.
+    pub format: StorageFormat,
+    /// When false, missing shard files are an error instead of being simulated (`bank merge`).
+    pub simulate_missing: bool,
+}
+
+/// Progress reports; the CLI attaches a progress bar or log lines.
+pub trait GenerateObserver: Sync {
+    /// Work is about to start: `to_simulate` instances in files still missing, `already_done`
+    /// instances found complete on disk.
+    fn started(&self, to_simulate: usize, already_done: usize);
+    /// One instance finished (called from worker threads).
+    fn instance_done(&self);
+    /// A shard file was written.
+    fn file_written(&self, name: &str);
+}
+
+/// An observer that reports nothing.
+pub struct Quiet;
+
+impl GenerateObserver for Quiet {
+    fn started(&self, _: usize, _: usize) {}
+    fn instance_done(&self) {}
+    fn file_written(&self, _: &str) {}
+}
+
+/// What a generate call did.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Outcome {
+    /// `CURRENT` already names a complete bank of these arguments; nothing was done.
+    UpToDate {
+        /// The version directory.
+        version: PathBuf,
+    },
+    /// The bank is complete and `CURRENT` points at it.
+    Complete {
+        /// The version directory.
+        version: PathBuf,
+        /// Instances simulated by this call.
+        simulated: usize,
+        /// Instances kept from an earlier, interrupted run.
+        resumed: usize,
+    },
+    /// This machine's shard files are written; the bank is completed by `bank merge`.
+    ShardDone {
+        /// The version directory.
+        version: PathBuf,
+        /// Instances simulated by this call.
+        simulated: usize,
+        /// Shard files written or found by this call.
+        files: usize,
+    },
+}
+
+/// Name of shard file `index` of `count`.
+pub fn shard_file_name(index: usize, count: usize) -> String {
+    format!("shard-{index:05}-of-{count:05}.parquet")
+}
+
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> BankError + '_ {
+    move |source| BankError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Writes bytes through a temporary file and a rename (atomic on one filesystem).
+pub(crate) fn write_file_atomically(path: &Path, bytes: &[u8]) -> Result<(), BankError> {
+    let tmp = path.with_file_name(format!(
+        ".{}.tmp",
+        path.file_name()
+            .map(|n| n.to_string_lossy())
+            .unwrap_or_default()
+    ));
+    std::fs::write(&tmp, bytes).map_err(io_err(&tmp))?;
+    std::fs::File::open(&tmp)
+        .and_then(|f| f.sync_all())
+        .map_err(io_err(&tmp))?;
+    std::fs::rename(&tmp, path).map_err(io_err(path))
+}
+
+/// The version directory a generate call with these arguments uses.
+pub fn version_dir(out: &Path, cal: &CheckedCalibration, opts: &GenerateOptions) -> PathBuf {
+    out.join(format!(
+        "v-{}",
+        bank_id(
+            cal,
+            opts.instances,
+            opts.seed,
+            opts.shard_size,
+            &opts.format.name()
+        )
+    ))
+}
+
+/// Generates (or resumes, or confirms) a bank in `out`. Runs on the current rayon pool.
+pub fn generate(
+    cal: &CheckedCalibration,
+    out: &Path,
+    opts: &GenerateOptions,
+    observer: &dyn GenerateObserver,
+) -> Result<Outcome, BankError> {
+    if opts.instances == 0 || opts.shard_size == 0 {
+        return Err(BankError::Invalid(
+            "instances and shard size must be positive".into(),
+        ));
+    }
+    if opts.instances > u32::MAX as usize {
+        return Err(BankError::Invalid(format!(
+            "{} instances exceed the u32 instance column",
+            opts.instances
+        )));
+    }
+    let id = bank_id(
+        cal,
+        opts.instances,
+        opts.seed,
+        opts.shard_size,
+        &opts.format.name(),
+    );
+    let version = out.join(format!("v-{id}"));
+    let version_name = format!("v-{id}");
+    let current_path = out.join(CURRENT);
+    if opts.machine_shard.is_none() {
+        let current = std::fs::read_to_string(&current_path).unwrap_or_default();
+        if current.trim() == version_name && version.join(MANIFEST).is_file() {
+            return Ok(Outcome::UpToDate { version });
+        }
+    }
+    std::fs::create_dir_all(&version).map_err(io_err(&version))?;
+    // Leftovers of an interrupted run: temporary files are never complete.
+    for entry in std::fs::read_dir(&version).map_err(io_err(&version))? {
+        let entry = entry.map_err(io_err(&version))?;
+        let name = entry.file_name().to_string_lossy().to_string();
+        if name.starts_with('.') && name.ends_with(".tmp") {
+            std::fs::remove_file(entry.path()).map_err(io_err(&entry.path()))?;
+        }
+    }
+
+    let count = opts.instances.div_ceil(opts.shard_size);
+    let files: Vec<usize> = match opts.machine_shard {
+        None => (0..count).collect(),
+        Some((i, n)) => {
+            if n == 0 || i >= n {
+                return Err(BankError::Invalid(format!(
+                    "shard {i}/{n}: need 0 <= I < N"
+                )));
+            }
+            (i * count / n..(i + 1) * count / n).collect()
+        }
+    };
+    let shard_info = |index: usize| {
+        let first = index * opts.shard_size;
+        ShardInfo {
+            index,
+            count,
+            first_instance: first,
+            rows: opts.shard_size.min(opts.instances - first),
+        }
+    };
+    let base_meta = BankMetadata {
+        format_version: FORMAT_VERSION,
+        generator: format!("wheelflat {}", env!("CARGO_PKG_VERSION")),
+        model_revision: MODEL_REVISION,
+        bank_id: id.clone(),
+        calibration_sha256: calibration_sha256(cal),
+        calibration: cal.document().clone(),
+        sampling: "hammersley: ((i+1/2)/N, phi2(i), phi3(i), phi5(i)) -> (L, d, c/min(c_hi, d/2), X_p); seed>0: Cranley-Patterson shift of the last three".into(),
+        instances: opts.instances,
+        seed: opts.seed,
+        shard_size: opts.shard_size,
+        shard: shard_info(0),
+        sensors: sensor_axes(cal),
+        force_unit: "kN".into(),
+    };
+
+    // Which files are already complete (renamed into place only when whole, and their footer
+    // names this bank)?
+    let mut missing = Vec::new();
+    let mut resumed = 0;
+    for &f in &files {
+        let path = version.join(shard_file_name(f, count));
+        let info = shard_info(f);
+        if path.is_file() && super::reader::shard_matches(&path, &id, &info).is_ok() {
+            resumed += info.rows;
+        } else {
+            missing.push(f);
+        }
+    }
+    if !missing.is_empty() && !opts.simulate_missing {
+        let names: Vec<String> = missing.iter().map(|&f| shard_file_name(f, count)).collect();
+        return Err(BankError::Incomplete {
+            dir: version,
+            missing: names,
+        });
+    }
+    let to_simulate: usize = missing.iter().map(|&f| shard_info(f).rows).sum();
+    observer.started(to_simulate, resumed);
+
+    let population = Population::new(&cal.population, opts.instances, opts.seed);
+    let simulator = if missing.is_empty() {
+        None
+    } else {
+        Some(Simulator::new(cal)?)
+    };
+    let axes = &base_meta.sensors;
+    for &f in &missing {
+        let sim = simulator
+            .as_ref()
+            .expect("a simulator exists when files are missing");
+        let info = shard_info(f);
+        let rows: Result<Vec<InstanceRow>, BankError> = (info.first_instance
+            ..info.first_instance + info.rows)
+            .into_par_iter()
+            .map_init(
+                || sim.workspace(),
+                |ws, i| {
+                    let s = population.instance(i);
+                    let flat =
+                        Flat::from_mm(s.length_mm, s.depth_mm, s.curvature_mm, s.impact_position_m)
+                            .map_err(|e| BankError::Instance {
+                                instance: i,
+                                message: e.to_string(),
+                            })?;
+                    let resp = sim
+                        .run_with(Some(&flat), Record::default(), ws)
+                        .map_err(|e| BankError::Instance {
+                            instance: i,
+                            message: e.to_string(),
+                        })?;
+                    let mut forces_kn = Vec::with_capacity(axes.iter().map(|a| a.samples).sum());
+                    for (si, a) in axes.iter().enumerate() {
+                        forces_kn.extend(
+                            resp.window(si, a.first_sample, a.samples)
+                                .iter()
+                                .map(|v| (v / 1e3) as f32),
+                        );
+                    }
+                    let l0_mm = flat.fresh_length_m(cal.vehicle.wheel_radius_m) * 1e3;
+                    observer.instance_done();
+                    Ok(InstanceRow {
+                        instance: i as u32,
+                        parameters: [
+                            s.length_mm,
+                            s.depth_mm,
+                            s.curvature_mm,
+                            s.impact_position_m,
+                            l0_mm,
+                        ],
+                        forces_kn,
+                    })
+                },
+            )
+            .collect();
+        let rows = rows?;
+        let name = shard_file_name(f, count);
+        let path = version.join(&name);
+        let tmp = version.join(format!(".{name}.tmp"));
+        let meta = BankMetadata {
+            shard: info,
+            ..base_meta.clone()
+        };
+        if let Err(e) = write_shard(&tmp, &meta, &rows, opts.format) {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(e);
+        }
+        std::fs::rename(&tmp, &path).map_err(io_err(&path))?;
+        observer.file_written(&name);
+    }
+
+    if opts.machine_shard.is_some() {
+        return Ok(Outcome::ShardDone {
+            version,
+            simulated: to_simulate,
+            files: files.len(),
+        });
+    }
+
+    // Every file is in place: manifest last, then the pointer.
+    let mut entries = Vec::with_capacity(count);
+    for f in 0..count {
+        let name = shard_file_name(f, count);
+        let path = version.join(&name);
+        let bytes = std::fs::read(&path).map_err(io_err(&path))?;
+        let info = shard_info(f);
+        entries.push(ManifestFile {
+            name,
+            first_instance: info.first_instance,
+            rows: info.rows,
+            bytes: bytes.len() as u64,
+            sha256: sha256_hex(&bytes),
+        });
+    }
+    let manifest = Manifest {
+        format_version: FORMAT_VERSION,
+        bank_id: id,
+        generator: base_meta.generator.clone(),
+        calibration_sha256: base_meta.calibration_sha256.clone(),
+        instances: opts.instances,
+        files: entries,
+    };
+    let json = serde_json::to_string_pretty(&manifest).expect("manifest serialises");
+    write_file_atomically(&version.join(MANIFEST), json.as_bytes())?;
+    write_file_atomically(&current_path, format!("{version_name}\n").as_bytes())?;
+    Ok(Outcome::Complete {
+        version,
+        simulated: to_simulate,
+        resumed,
+    })
+}

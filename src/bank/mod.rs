@@ -1,0 +1,81 @@
+//! The model bank: the whole population simulated once, offline, stored as columnar Parquet
+//! (wide layout: one f32 column per sensor sample), read back through a memory map.
+//!
+//! - [`population`]: Hammersley sampling of (L, d, c, X_p).
+//! - [`schema`]: column names, metadata, manifest.
+//! - [`writer`]: one shard file.
+//! - [`generate`]: parallel generation, resume, versions and the `CURRENT` pointer.
+//! - [`reader`]: memory-mapped reading of projected columns; verification.
+
+pub mod generate;
+pub mod population;
+pub mod reader;
+pub mod schema;
+pub mod writer;
+
+pub use generate::{generate, GenerateObserver, GenerateOptions, Outcome, Quiet};
+pub use population::{FlatSample, Population};
+pub use reader::{verify, Bank, Parameters, VerifyProblem};
+pub use schema::{BankMetadata, Manifest};
+pub use writer::{Codec, StorageFormat, ValueEncoding};
+
+use std::path::PathBuf;
+use thiserror::Error;
+
+/// Errors of the bank layer.
+#[derive(Debug, Error)]
+pub enum BankError {
+    /// A file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Parquet could not write a file.
+    #[error("{path}: cannot write Parquet: {message}")]
+    Parquet {
+        /// The file.
+        path: PathBuf,
+        /// The writer's message.
+        message: String,
+    },
+    /// A bank file is unreadable, truncated or foreign.
+    #[error("{path}: corrupt or foreign bank file: {message}")]
+    Corrupt {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// The directory holds neither a `CURRENT` pointer nor a manifest.
+    #[error("{dir} is not a wheelflat bank (no CURRENT file and no manifest.json)")]
+    NotABank {
+        /// The directory.
+        dir: PathBuf,
+    },
+    /// `bank merge` found shard files missing.
+    #[error("{dir} is incomplete: missing {}", missing.join(", "))]
+    Incomplete {
+        /// The version directory.
+        dir: PathBuf,
+        /// Missing file names.
+        missing: Vec<String>,
+    },
+    /// An instance could not be simulated.
+    #[error("instance {instance}: {message}")]
+    Instance {
+        /// Instance number.
+        instance: usize,
+        /// The simulator's message.
+        message: String,
+    },
+    /// The simulator could not be built.
+    #[error(transparent)]
+    Sim(#[from] crate::model::SimError),
+    /// Invalid arguments.
+    #[error("{0}")]
+    Invalid(String),
+}

@@ -1,0 +1,456 @@
+//! The memory-mapped bank reader: the identifier's hot path.
+//!
+//! [`Bank::open`] maps every shard file (`memmap2`, wrapped in `bytes::Bytes` without a copy)
+//! and parses each footer once. [`Bank::read_columns`] then decodes only the projected columns
+//! (`ProjectionMask`) straight from the mapped pages.
+
+use super::generate::{CURRENT, MANIFEST};
+use super::schema::{
+    sha256_hex, BankMetadata, Manifest, ShardInfo, METADATA_KEY, PARAMETER_COLUMNS,
+};
+use super::BankError;
+use arrow_array::{Array, Float32Array, Float64Array, UInt32Array};
+use bytes::Bytes;
+use parquet::arrow::arrow_reader::{
+    ArrowReaderMetadata, ArrowReaderOptions, ParquetRecordBatchReaderBuilder,
+};
+use parquet::arrow::ProjectionMask;
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+
+/// One mapped shard file.
+#[derive(Debug, Clone)]
+struct ShardFile {
+    path: PathBuf,
+    bytes: Bytes,
+    meta: ArrowReaderMetadata,
+    rows: usize,
+}
+
+/// An open bank.
+#[derive(Debug, Clone)]
+pub struct Bank {
+    dir: PathBuf,
+    manifest: Manifest,
+    metadata: BankMetadata,
+    files: Vec<ShardFile>,
+}
+
+/// The parameter columns of every instance.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Parameters {
+    /// Instance numbers.
+    pub instance: Vec<u32>,
+    /// Flat length L (mm).
+    pub length_mm: Vec<f64>,
+    /// Flat depth d (mm).
+    pub depth_mm: Vec<f64>,
+    /// Curvature c (mm).
+    pub curvature_mm: Vec<f64>,
+    /// Impact position X_p (m).
+    pub impact_position_m: Vec<f64>,
+    /// Fresh-flat length L0 = sqrt(8·d·R_w) (mm).
+    pub l0_mm: Vec<f64>,
+}
+
+fn parquet_err(path: &Path) -> impl Fn(parquet::errors::ParquetError) -> BankError + '_ {
+    move |e| BankError::Corrupt {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+/// Maps a file read-only.
+fn map(path: &Path) -> Result<Bytes, BankError> {
+    let file = std::fs::File::open(path).map_err(|source| BankError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    // SAFETY: shard files are written to a temporary name and renamed into place when complete;
+    // no wheelflat process modifies a file after that, so the mapping is not mutated under us.
+    // (Another program truncating the file while it is mapped would be outside this contract.)
+    let mmap = unsafe { memmap2::Mmap::map(&file) }.map_err(|source| BankError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    Ok(Bytes::from_owner(mmap))
+}
+
+/// Reads and parses a shard file's footer and its wheelflat metadata.
+fn open_shard(path: &Path) -> Result<(Bytes, ArrowReaderMetadata, BankMetadata), BankError> {
+    let bytes = map(path)?;
+    let meta =
+        ArrowReaderMetadata::load(&bytes, ArrowReaderOptions::new()).map_err(parquet_err(path))?;
+    let kv = meta
+        .metadata()
+        .file_metadata()
+        .key_value_metadata()
+        .and_then(|kvs| kvs.iter().find(|kv| kv.key == METADATA_KEY))
+        .and_then(|kv| kv.value.clone())
+        .ok_or_else(|| BankError::Corrupt {
+            path: path.to_path_buf(),
+            message: format!("no `{METADATA_KEY}` metadata: not a wheelflat bank file"),
+        })?;
+    let bank_meta: BankMetadata = serde_json::from_str(&kv).map_err(|e| BankError::Corrupt {
+        path: path.to_path_buf(),
+        message: format!("bad `{METADATA_KEY}` metadata: {e}"),
+    })?;
+    Ok((bytes, meta, bank_meta))
+}
+
+/// Checks that a complete shard file belongs to bank `id` and holds `info` (used on resume).
+pub(crate) fn shard_matches(path: &Path, id: &str, info: &ShardInfo) -> Result<(), BankError> {
+    let (_, meta, bank_meta) = open_shard(path)?;
+    let rows = meta.metadata().file_metadata().num_rows() as usize;
+    if bank_meta.bank_id != id || bank_meta.shard != *info || rows != info.rows {
+        return Err(BankError::Corrupt {
+            path: path.to_path_buf(),
+            message: "belongs to another bank or holds other rows".into(),
+        });
+    }
+    Ok(())
+}
+
+/// The version directory a bank path designates: `DIR/CURRENT`'s target, or `DIR` itself when
+/// it holds a manifest.
+pub fn resolve_version(dir: &Path) -> Result<PathBuf, BankError> {
+    let current = dir.join(CURRENT);
+    if current.is_file() {
+        let name = std::fs::read_to_string(&current).map_err(|source| BankError::Io {
+            path: current.clone(),
+            source,
+        })?;
+        return Ok(dir.join(name.trim()));
+    }
+    if dir.join(MANIFEST).is_file() {
+        return Ok(dir.to_path_buf());
+    }
+    Err(BankError::NotABank {
+        dir: dir.to_path_buf(),
+    })
+}
+
+/// Reads a version directory's manifest.
+pub fn read_manifest(version: &Path) -> Result<Manifest, BankError> {
+    let path = version.join(MANIFEST);
+    let text = std::fs::read_to_string(&path).map_err(|source| BankError::Io {
+        path: path.clone(),
+        source,
+    })?;
+    serde_json::from_str(&text).map_err(|e| BankError::Corrupt {
+        path,
+        message: e.to_string(),
+    })
+}
+
+impl Bank {
+    /// Opens a bank (a bank directory with `CURRENT`, or a version directory), maps its shard
+    /// files and parses their footers once.
+    pub fn open(dir: &Path) -> Result<Bank, BankError> {
+        let version = resolve_version(dir)?;
+        let manifest = read_manifest(&version)?;
+        let mut files = Vec::with_capacity(manifest.files.len());
+        let mut metadata = None;
+        for f in &manifest.files {
+            let path = version.join(&f.name);
+            let (bytes, meta, bank_meta) = open_shard(&path)?;
+            if bytes.len() as u64 != f.bytes {
+                return Err(BankError::Corrupt {
+                    path,
+                    message: format!("{} bytes, the manifest says {}", bytes.len(), f.bytes),
+                });
+            }
+            if bank_meta.bank_id != manifest.bank_id {
+                return Err(BankError::Corrupt {
+                    path,
+                    message: format!(
+                        "bank id {} does not match the manifest's {}",
+                        bank_meta.bank_id, manifest.bank_id
+                    ),
+                });
+            }
+            metadata.get_or_insert(bank_meta);
+            files.push(ShardFile {
+                path,
+                bytes,
+                meta,
+                rows: f.rows,
+            });
+        }
+        let metadata = metadata.ok_or_else(|| BankError::Corrupt {
+            path: version.join(MANIFEST),
+            message: "lists no shard files".into(),
+        })?;
+        Ok(Bank {
+            dir: version,
+            manifest,
+            metadata,
+            files,
+        })
+    }
+
+    /// The version directory.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// The bank's metadata (from its first shard file; all files share it but for `shard`).
+    pub fn metadata(&self) -> &BankMetadata {
+        &self.metadata
+    }
+
+    /// The manifest.
+    pub fn manifest(&self) -> &Manifest {
+        &self.manifest
+    }
+
+    /// Number of instances.
+    pub fn instances(&self) -> usize {
+        self.files.iter().map(|f| f.rows).sum()
+    }
+
+    /// Schema index of a column name.
+    pub fn column_index(&self, name: &str) -> Option<usize> {
+        self.files[0].meta.schema().index_of(name).ok()
+    }
+
+    /// Schema index of sample `k` of sensor number `s`.
+    pub fn sample_index(&self, s: usize, k: usize) -> usize {
+        super::schema::sample_column_index(&self.metadata.sensors, s, k)
+    }
+
+    fn read_projected<F: FnMut(usize, &dyn Array)>(
+        &self,
+        indices: &[usize],
+        mut sink: F,
+    ) -> Result<(), BankError> {
+        let mut sorted: Vec<usize> = indices.to_vec();
+        sorted.sort_unstable();
+        sorted.dedup();
+        for file in &self.files {
+            let schema = file.meta.metadata().file_metadata().schema_descr();
+            let mask = ProjectionMask::roots(schema, sorted.iter().copied());
+            let reader = ParquetRecordBatchReaderBuilder::new_with_metadata(
+                file.bytes.clone(),
+                file.meta.clone(),
+            )
+            .with_projection(mask)
+            .with_batch_size(file.rows.max(1))
+            .build()
+            .map_err(parquet_err(&file.path))?;
+            for batch in reader {
+                let batch = batch.map_err(|e| BankError::Corrupt {
+                    path: file.path.clone(),
+                    message: e.to_string(),
+                })?;
+                for (pos, &col) in sorted.iter().enumerate() {
+                    sink(col, batch.column(pos).as_ref());
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Reads f32 sample columns (schema indices) for every instance: one vector per requested
+    /// column, in the order asked, each in instance order. Allocates the result; see
+    /// [`Bank::read_columns_into`] for the hot path.
+    pub fn read_columns(&self, indices: &[usize]) -> Result<Vec<Vec<f32>>, BankError> {
+        let mut out = Vec::new();
+        self.read_columns_into(indices, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`Bank::read_columns`] into caller-provided buffers, reused across calls (a fresh
+    /// 12 MB allocation per call costs more in page faults than the decoding itself). Shard
+    /// files are decoded in parallel on the current rayon pool, each straight into its own
+    /// slice of the output.
+    pub fn read_columns_into(
+        &self,
+        indices: &[usize],
+        out: &mut Vec<Vec<f32>>,
+    ) -> Result<(), BankError> {
+        let mut sorted: Vec<usize> = indices.to_vec();
+        sorted.sort_unstable();
+        sorted.dedup();
+        let n = self.instances();
+        out.resize_with(indices.len(), Vec::new);
+        // Decode into the first `sorted.len()` buffers, then arrange them in the order asked.
+        let mut columns: Vec<Vec<f32>> = std::mem::take(out);
+        columns.truncate(indices.len());
+        for c in columns.iter_mut() {
+            c.resize(n, 0.0);
+        }
+        // Per file, its rows of every column.
+        let mut slots: Vec<Vec<&mut [f32]>> = self
+            .files
+            .iter()
+            .map(|_| Vec::with_capacity(sorted.len()))
+            .collect();
+        for col in columns[..sorted.len()].iter_mut() {
+            let mut rest = col.as_mut_slice();
+            for (file_slots, file) in slots.iter_mut().zip(&self.files) {
+                let (head, tail) = rest.split_at_mut(file.rows);
+                file_slots.push(head);
+                rest = tail;
+            }
+        }
+        self.files
+            .par_iter()
+            .zip(slots.par_iter_mut())
+            .try_for_each(|(file, file_slots)| -> Result<(), BankError> {
+                let schema = file.meta.metadata().file_metadata().schema_descr();
+                let mask = ProjectionMask::roots(schema, sorted.iter().copied());
+                let reader = ParquetRecordBatchReaderBuilder::new_with_metadata(
+                    file.bytes.clone(),
+                    file.meta.clone(),
+                )
+                .with_projection(mask)
+                .with_batch_size(file.rows.max(1))
+                .build()
+                .map_err(parquet_err(&file.path))?;
+                let mut offset = 0;
+                for batch in reader {
+                    let batch = batch.map_err(|e| BankError::Corrupt {
+                        path: file.path.clone(),
+                        message: e.to_string(),
+                    })?;
+                    for (pos, slot) in file_slots.iter_mut().enumerate() {
+                        let values = batch
+                            .column(pos)
+                            .as_any()
+                            .downcast_ref::<Float32Array>()
+                            .ok_or_else(|| {
+                                BankError::Invalid(format!(
+                                    "column {} is not a force-sample column",
+                                    sorted[pos]
+                                ))
+                            })?;
+                        let len = values.len();
+                        if offset + len > slot.len() {
+                            return Err(BankError::Corrupt {
+                                path: file.path.clone(),
+                                message: format!("more rows than the manifest's {}", file.rows),
+                            });
+                        }
+                        slot[offset..offset + len].copy_from_slice(values.values());
+                    }
+                    offset += batch.num_rows();
+                }
+                if offset != file.rows {
+                    return Err(BankError::Corrupt {
+                        path: file.path.clone(),
+                        message: format!("{offset} rows, the manifest says {}", file.rows),
+                    });
+                }
+                Ok(())
+            })?;
+        // Back to the order asked: decoded column `pos` goes to its first slot, later duplicates
+        // get copies, spare buffers fill the rest.
+        let spare = columns.split_off(sorted.len());
+        let mut decoded: Vec<Option<Vec<f32>>> = columns.into_iter().map(Some).collect();
+        let mut spare = spare.into_iter();
+        let mut first_slot = vec![usize::MAX; sorted.len()];
+        for (slot, &col) in indices.iter().enumerate() {
+            let pos = sorted
+                .binary_search(&col)
+                .expect("every index is in the sorted set");
+            match decoded[pos].take() {
+                Some(v) => {
+                    first_slot[pos] = slot;
+                    out.push(v);
+                }
+                None => {
+                    let mut v = spare.next().unwrap_or_default();
+                    v.clear();
+                    v.extend_from_slice(&out[first_slot[pos]]);
+                    out.push(v);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Reads the parameter columns of every instance.
+    pub fn read_parameters(&self) -> Result<Parameters, BankError> {
+        let mut p = Parameters::default();
+        let cols: Vec<usize> = (0..=PARAMETER_COLUMNS.len()).collect();
+        self.read_projected(&cols, |col, array| {
+            if col == 0 {
+                if let Some(a) = array.as_any().downcast_ref::<UInt32Array>() {
+                    p.instance.extend_from_slice(a.values());
+                }
+                return;
+            }
+            if let Some(a) = array.as_any().downcast_ref::<Float64Array>() {
+                let target = match col {
+                    1 => &mut p.length_mm,
+                    2 => &mut p.depth_mm,
+                    3 => &mut p.curvature_mm,
+                    4 => &mut p.impact_position_m,
+                    _ => &mut p.l0_mm,
+                };
+                target.extend_from_slice(a.values());
+            }
+        })?;
+        Ok(p)
+    }
+}
+
+/// One problem found by [`verify`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct VerifyProblem {
+    /// The file.
+    pub path: PathBuf,
+    /// What is wrong.
+    pub message: String,
+}
+
+/// Checks every file of a bank against its manifest (presence, size, SHA-256, readable footer
+/// naming this bank). Returns the problems found (empty: the bank is intact).
+pub fn verify(dir: &Path) -> Result<(Manifest, Vec<VerifyProblem>), BankError> {
+    let version = resolve_version(dir)?;
+    let manifest = read_manifest(&version)?;
+    let mut problems = Vec::new();
+    for f in &manifest.files {
+        let path = version.join(&f.name);
+        let bytes = match std::fs::read(&path) {
+            Ok(b) => b,
+            Err(e) => {
+                problems.push(VerifyProblem {
+                    path,
+                    message: format!("cannot read: {e}"),
+                });
+                continue;
+            }
+        };
+        if bytes.len() as u64 != f.bytes {
+            problems.push(VerifyProblem {
+                path,
+                message: format!(
+                    "truncated or extended: {} bytes, manifest says {}",
+                    bytes.len(),
+                    f.bytes
+                ),
+            });
+            continue;
+        }
+        let sum = sha256_hex(&bytes);
+        if sum != f.sha256 {
+            problems.push(VerifyProblem {
+                path,
+                message: format!(
+                    "checksum mismatch: sha256 {sum}, manifest says {}",
+                    f.sha256
+                ),
+            });
+            continue;
+        }
+        if let Err(e) = open_shard(&path) {
+            problems.push(VerifyProblem {
+                path,
+                message: e.to_string(),
+            });
+        }
+    }
+    Ok((manifest, problems))
+}

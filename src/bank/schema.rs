@@ -1,0 +1,228 @@
+//! The bank's file layout: Parquet schema (wide, one f32 column per sensor sample), the
+//! key/value metadata every shard file carries, and the manifest of a complete bank.
+
+use crate::model::{Calibration, CheckedCalibration};
+use arrow_schema::{DataType, Field, Schema};
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+use std::sync::Arc;
+
+/// Version of the on-disk format (schema, metadata and manifest).
+pub const FORMAT_VERSION: u32 = 1;
+/// Revision of the physics: bump when a code change alters simulated values, so that
+/// existing banks are rebuilt and audits report the drift.
+pub const MODEL_REVISION: u32 = 1;
+/// The one key/value metadata key of a shard file; its value is [`BankMetadata`] as JSON.
+pub const METADATA_KEY: &str = "wheelflat.bank";
+/// Parameter columns, in order, before the sample columns.
+pub const PARAMETER_COLUMNS: [&str; 5] = [
+    "length_mm",
+    "depth_mm",
+    "curvature_mm",
+    "impact_position_m",
+    "l0_mm",
+];
+
+/// Time axis of one sensor's window.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SensorAxis {
+    /// Sensor name (column prefix).
+    pub name: String,
+    /// Sleeper index.
+    pub sleeper: usize,
+    /// Position along the rail (m).
+    pub position_m: f64,
+    /// Sample rate (Hz).
+    pub sample_rate_hz: f64,
+    /// Global index of the first sample: sample k of the window is at `(first_sample + k)/rate` s.
+    pub first_sample: usize,
+    /// Samples in the window.
+    pub samples: usize,
+    /// Time of the first sample (s).
+    pub t0_s: f64,
+}
+
+/// Which part of the bank a shard file holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ShardInfo {
+    /// Index of this shard file.
+    pub index: usize,
+    /// Number of shard files in the bank.
+    pub count: usize,
+    /// First instance number in the file.
+    pub first_instance: usize,
+    /// Instances (rows) in the file.
+    pub rows: usize,
+}
+
+/// Metadata stored (as JSON) in every shard file under [`METADATA_KEY`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BankMetadata {
+    /// [`FORMAT_VERSION`].
+    pub format_version: u32,
+    /// `wheelflat <crate version>`.
+    pub generator: String,
+    /// [`MODEL_REVISION`].
+    pub model_revision: u32,
+    /// Identity of the bank: hash of everything that determines its contents.
+    pub bank_id: String,
+    /// SHA-256 of the calibration's canonical TOML text.
+    pub calibration_sha256: String,
+    /// The full calibration.
+    pub calibration: Calibration,
+    /// Population sampling scheme.
+    pub sampling: String,
+    /// Instances in the whole bank.
+    pub instances: usize,
+    /// Seed of the population (0: plain Hammersley).
+    pub seed: u64,
+    /// Instances per shard file.
+    pub shard_size: usize,
+    /// This file's part of the bank.
+    pub shard: ShardInfo,
+    /// Time axis of every sensor.
+    pub sensors: Vec<SensorAxis>,
+    /// Unit of the sample columns.
+    pub force_unit: String,
+}
+
+/// One shard file in the manifest.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ManifestFile {
+    /// File name inside the bank version directory.
+    pub name: String,
+    /// First instance number.
+    pub first_instance: usize,
+    /// Rows.
+    pub rows: usize,
+    /// Size in bytes.
+    pub bytes: u64,
+    /// SHA-256 of the file, hex.
+    pub sha256: String,
+}
+
+/// `manifest.json`: written last, once every shard file is in place.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// [`FORMAT_VERSION`].
+    pub format_version: u32,
+    /// Bank identity (matches every file's metadata).
+    pub bank_id: String,
+    /// Generator version.
+    pub generator: String,
+    /// Calibration hash.
+    pub calibration_sha256: String,
+    /// Instances in the bank.
+    pub instances: usize,
+    /// The shard files, in instance order.
+    pub files: Vec<ManifestFile>,
+}
+
+/// Hex SHA-256 of bytes.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    let digest = Sha256::digest(bytes);
+    digest.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// SHA-256 of the calibration's canonical TOML text.
+pub fn calibration_sha256(cal: &CheckedCalibration) -> String {
+    sha256_hex(cal.document().to_toml_string().as_bytes())
+}
+
+/// Bank identity: everything that determines the bytes of the bank.
+pub fn bank_id(
+    cal: &CheckedCalibration,
+    instances: usize,
+    seed: u64,
+    shard_size: usize,
+    storage: &str,
+) -> String {
+    let key = format!(
+        "{}\nformat={FORMAT_VERSION}\nmodel={MODEL_REVISION}\ngenerator={}\ninstances={instances}\nseed={seed}\nshard_size={shard_size}\nstorage={storage}\n",
+        cal.document().to_toml_string(),
+        env!("CARGO_PKG_VERSION"),
+    );
+    sha256_hex(key.as_bytes())[..16].to_string()
+}
+
+/// Time axes of a calibration's sensors.
+pub fn sensor_axes(cal: &CheckedCalibration) -> Vec<SensorAxis> {
+    (0..cal.sensors.pad.len())
+        .map(|i| {
+            let first = cal.window_start_sample(i);
+            SensorAxis {
+                name: cal.sensors.pad[i].name.clone(),
+                sleeper: cal.sensors.pad[i].sleeper,
+                position_m: cal.sensor_position_m(i),
+                sample_rate_hz: cal.output.sample_rate_hz,
+                first_sample: first,
+                samples: cal.output.window_samples,
+                t0_s: first as f64 / cal.output.sample_rate_hz,
+            }
+        })
+        .collect()
+}
+
+/// Name of sample `k` of sensor `sensor`: `rps2_t0137` (zero-padded to at least 4 digits).
+pub fn sample_column(sensor: &str, k: usize, samples: usize) -> String {
+    let width = (samples.saturating_sub(1)).to_string().len().max(4);
+    format!("{sensor}_t{k:0width$}")
+}
+
+/// The Arrow schema: `instance` (u32), the parameter columns (f64), then one non-nullable f32
+/// column per sensor sample, sensor by sensor.
+pub fn arrow_schema(axes: &[SensorAxis]) -> Arc<Schema> {
+    let mut fields = vec![Field::new("instance", DataType::UInt32, false)];
+    for p in PARAMETER_COLUMNS {
+        fields.push(Field::new(p, DataType::Float64, false));
+    }
+    for a in axes {
+        for k in 0..a.samples {
+            fields.push(Field::new(
+                sample_column(&a.name, k, a.samples),
+                DataType::Float32,
+                false,
+            ));
+        }
+    }
+    Arc::new(Schema::new(fields))
+}
+
+/// Index in the schema of sample `k` of sensor number `s`.
+pub fn sample_column_index(axes: &[SensorAxis], s: usize, k: usize) -> usize {
+    1 + PARAMETER_COLUMNS.len() + axes[..s].iter().map(|a| a.samples).sum::<usize>() + k
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sample_columns_are_zero_padded_without_dots() {
+        assert_eq!(sample_column("rps2", 137, 1000), "rps2_t0137");
+        assert_eq!(sample_column("rps1", 5, 20000), "rps1_t00005");
+        let cal = Calibration::default().check().unwrap();
+        let axes = sensor_axes(&cal);
+        let schema = arrow_schema(&axes);
+        assert_eq!(schema.fields().len(), 1 + 5 + 5 * 1000);
+        assert_eq!(
+            schema.field(sample_column_index(&axes, 1, 137)).name(),
+            "rps2_t0137"
+        );
+        assert!(schema
+            .fields()
+            .iter()
+            .all(|f| !f.name().contains('.') && !f.is_nullable()));
+    }
+
+    #[test]
+    fn bank_id_changes_with_calibration_and_size() {
+        let cal = Calibration::default().check().unwrap();
+        let a = bank_id(&cal, 100, 0, 50, "x");
+        assert_eq!(a, bank_id(&cal, 100, 0, 50, "x"));
+        assert_ne!(a, bank_id(&cal, 101, 0, 50, "x"));
+        let mut c = cal.document().clone();
+        c.track.pad_stiffness_n_per_m *= 1.01;
+        assert_ne!(a, bank_id(&c.check().unwrap(), 100, 0, 50, "x"));
+    }
+}

@@ -1,0 +1,327 @@
+//! The model bank on small populations and short windows: determinism across thread counts,
+//! resume after interruption, shards, regeneration, the memory-mapped reader, verification,
+//! and interoperability with pyarrow.
+
+use std::path::{Path, PathBuf};
+use wheelflat::bank::{self, Bank, GenerateOptions, Outcome, Quiet, StorageFormat};
+use wheelflat::model::{Calibration, CheckedCalibration, Flat, Record, Simulator};
+
+/// Short windows keep the bank small: 5 sensors × 100 samples.
+fn small_calibration() -> CheckedCalibration {
+    let mut c = Calibration::default();
+    c.output.window_samples = 100;
+    c.check().unwrap()
+}
+
+fn options(instances: usize, shard_size: usize) -> GenerateOptions {
+    GenerateOptions {
+        instances,
+        seed: 0,
+        shard_size,
+        machine_shard: None,
+        format: StorageFormat::default(),
+        simulate_missing: true,
+    }
+}
+
+fn generate_with_threads(
+    cal: &CheckedCalibration,
+    out: &Path,
+    opts: &GenerateOptions,
+    threads: usize,
+) -> Outcome {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    pool.install(|| bank::generate(cal, out, opts, &Quiet))
+        .unwrap()
+}
+
+/// All files of a bank directory (recursively), relative path → bytes.
+fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.push((
+                    p.strip_prefix(dir).unwrap().to_path_buf(),
+                    std::fs::read(&p).unwrap(),
+                ));
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn same_inputs_give_identical_bytes_with_one_or_two_threads() {
+    let cal = small_calibration();
+    let opts = options(48, 16);
+    let a = tempfile::tempdir().unwrap();
+    let b = tempfile::tempdir().unwrap();
+    generate_with_threads(&cal, a.path(), &opts, 1);
+    generate_with_threads(&cal, b.path(), &opts, 2);
+    let (sa, sb) = (snapshot(a.path()), snapshot(b.path()));
+    assert_eq!(sa.len(), 3 + 2, "3 shard files + manifest + CURRENT");
+    assert!(sa == sb, "banks differ between 1 and 2 threads");
+}
+
+#[test]
+fn stored_series_equal_a_fresh_simulation_of_the_instance() {
+    let cal = small_calibration();
+    let dir = tempfile::tempdir().unwrap();
+    generate_with_threads(&cal, dir.path(), &options(30, 10), 2);
+    let bank = Bank::open(dir.path()).unwrap();
+    assert_eq!(bank.instances(), 30);
+    let params = bank.read_parameters().unwrap();
+    assert_eq!(params.instance, (0..30).collect::<Vec<u32>>());
+    let sim = Simulator::new(&cal).unwrap();
+    let axes = &bank.metadata().sensors;
+    for i in [0usize, 17, 29] {
+        let flat = Flat::from_mm(
+            params.length_mm[i],
+            params.depth_mm[i],
+            params.curvature_mm[i],
+            params.impact_position_m[i],
+        )
+        .unwrap();
+        let resp = sim.run(Some(&flat), Record::default()).unwrap();
+        for (s, axis) in axes.iter().enumerate() {
+            let cols: Vec<usize> = (0..axis.samples).map(|k| bank.sample_index(s, k)).collect();
+            let stored = bank.read_columns(&cols).unwrap();
+            let fresh = resp.window(s, axis.first_sample, axis.samples);
+            for k in 0..axis.samples {
+                assert!(
+                    stored[k][i] == (fresh[k] / 1e3) as f32,
+                    "instance {i} {} sample {k}",
+                    axis.name
+                );
+            }
+        }
+        assert!((params.l0_mm[i] - (8.0 * params.depth_mm[i] * 400.0).sqrt()).abs() < 1e-9);
+    }
+    // Columns come back in the order asked, duplicates included.
+    let c = [
+        bank.sample_index(1, 50),
+        bank.sample_index(0, 3),
+        bank.sample_index(1, 50),
+    ];
+    let v = bank.read_columns(&c).unwrap();
+    let w = bank.read_columns(&[c[1]]).unwrap();
+    assert!(v[1] == w[0] && v[0] == v[2]);
+}
+
+#[test]
+fn interrupted_run_resumes_and_ends_byte_identical() {
+    let cal = small_calibration();
+    let opts = options(45, 15);
+    let whole = tempfile::tempdir().unwrap();
+    generate_with_threads(&cal, whole.path(), &opts, 2);
+
+    // An "interrupted" run: the first shard file finished, a half-written temporary left behind.
+    let resumed = tempfile::tempdir().unwrap();
+    let first = GenerateOptions {
+        machine_shard: Some((0, 3)),
+        ..opts.clone()
+    };
+    generate_with_threads(&cal, resumed.path(), &first, 2);
+    let version = bank::generate::version_dir(resumed.path(), &cal, &opts);
+    std::fs::write(
+        version.join(".shard-00001-of-00003.parquet.tmp"),
+        b"half a file",
+    )
+    .unwrap();
+    assert!(
+        !resumed.path().join("CURRENT").exists(),
+        "no pointer before the bank is complete"
+    );
+
+    match generate_with_threads(&cal, resumed.path(), &opts, 2) {
+        Outcome::Complete {
+            simulated, resumed, ..
+        } => assert_eq!((simulated, resumed), (30, 15)),
+        o => panic!("{o:?}"),
+    }
+    assert!(
+        snapshot(whole.path()) == snapshot(resumed.path()),
+        "resumed bank differs"
+    );
+}
+
+#[test]
+fn union_of_shards_equals_a_single_run_and_merge_names_missing_files() {
+    let cal = small_calibration();
+    let opts = options(40, 10);
+    let single = tempfile::tempdir().unwrap();
+    generate_with_threads(&cal, single.path(), &opts, 2);
+
+    let sharded = tempfile::tempdir().unwrap();
+    let merge = GenerateOptions {
+        simulate_missing: false,
+        ..opts.clone()
+    };
+    generate_with_threads(
+        &cal,
+        sharded.path(),
+        &GenerateOptions {
+            machine_shard: Some((1, 2)),
+            ..opts.clone()
+        },
+        1,
+    );
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let err = pool
+        .install(|| bank::generate(&cal, sharded.path(), &merge, &Quiet))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("shard-00000-of-00004.parquet")
+            && err.contains("shard-00001-of-00004.parquet"),
+        "{err}"
+    );
+    assert!(!err.contains("shard-00002"), "{err}");
+
+    generate_with_threads(
+        &cal,
+        sharded.path(),
+        &GenerateOptions {
+            machine_shard: Some((0, 2)),
+            ..opts.clone()
+        },
+        2,
+    );
+    match generate_with_threads(&cal, sharded.path(), &merge, 1) {
+        Outcome::Complete { simulated, .. } => assert_eq!(simulated, 0),
+        o => panic!("{o:?}"),
+    }
+    assert!(
+        snapshot(single.path()) == snapshot(sharded.path()),
+        "union of shards differs"
+    );
+}
+
+#[test]
+fn up_to_date_bank_is_left_alone_and_a_new_calibration_builds_beside_it() {
+    let cal = small_calibration();
+    let opts = options(12, 6);
+    let dir = tempfile::tempdir().unwrap();
+    let Outcome::Complete { version: v1, .. } = generate_with_threads(&cal, dir.path(), &opts, 2)
+    else {
+        panic!()
+    };
+    let before = snapshot(dir.path());
+    assert!(matches!(
+        generate_with_threads(&cal, dir.path(), &opts, 2),
+        Outcome::UpToDate { .. }
+    ));
+    assert!(before == snapshot(dir.path()));
+
+    let mut changed = cal.document().clone();
+    changed.track.pad_stiffness_n_per_m *= 1.1;
+    let changed = changed.check().unwrap();
+    let Outcome::Complete { version: v2, .. } =
+        generate_with_threads(&changed, dir.path(), &opts, 2)
+    else {
+        panic!()
+    };
+    assert_ne!(v1, v2);
+    assert!(v1.join("manifest.json").is_file(), "the old version stays");
+    let current = std::fs::read_to_string(dir.path().join("CURRENT")).unwrap();
+    assert_eq!(current.trim(), v2.file_name().unwrap().to_string_lossy());
+    let bank = Bank::open(dir.path()).unwrap();
+    assert_eq!(bank.metadata().calibration, *changed.document());
+}
+
+#[test]
+fn corrupt_or_truncated_files_are_named_never_a_panic() {
+    let cal = small_calibration();
+    let dir = tempfile::tempdir().unwrap();
+    let Outcome::Complete { version, .. } =
+        generate_with_threads(&cal, dir.path(), &options(12, 6), 2)
+    else {
+        panic!()
+    };
+    let (_, problems) = bank::verify(dir.path()).unwrap();
+    assert!(problems.is_empty());
+
+    let f0 = version.join("shard-00000-of-00002.parquet");
+    let mut bytes = std::fs::read(&f0).unwrap();
+    bytes[1000] ^= 0xff;
+    std::fs::write(&f0, &bytes).unwrap();
+    let f1 = version.join("shard-00001-of-00002.parquet");
+    let len = std::fs::metadata(&f1).unwrap().len();
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(&f1)
+        .unwrap()
+        .set_len(len / 2)
+        .unwrap();
+
+    let (_, problems) = bank::verify(dir.path()).unwrap();
+    assert_eq!(problems.len(), 2);
+    assert!(
+        problems[0].path == f0 && problems[0].message.contains("checksum mismatch"),
+        "{problems:?}"
+    );
+    assert!(
+        problems[1].path == f1 && problems[1].message.contains("truncated"),
+        "{problems:?}"
+    );
+    let err = Bank::open(dir.path()).unwrap_err().to_string();
+    assert!(err.contains("shard-00001-of-00002.parquet"), "{err}");
+
+    let err = Bank::open(Path::new("/nonexistent/bank"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("not a wheelflat bank"), "{err}");
+}
+
+/// The interop check runs a Python script with pyarrow. CI sets `WHEELFLAT_PYTHON` to an
+/// interpreter that has it (and the test then must pass); elsewhere it uses `python3` and is
+/// skipped, with a message, when pyarrow is missing.
+#[test]
+fn pyarrow_reads_shape_column_names_and_metadata() {
+    let python = std::env::var("WHEELFLAT_PYTHON").ok();
+    let required = python.is_some();
+    let python = python.unwrap_or_else(|| "python3".into());
+    let has_pyarrow = std::process::Command::new(&python)
+        .args(["-c", "import pyarrow"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !has_pyarrow {
+        assert!(!required, "WHEELFLAT_PYTHON={python} has no pyarrow");
+        eprintln!("skipped: {python} has no pyarrow (CI installs it)");
+        return;
+    }
+    let cal = small_calibration();
+    let dir = tempfile::tempdir().unwrap();
+    generate_with_threads(&cal, dir.path(), &options(20, 10), 2);
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/interop/read_bank.py");
+    let out = std::process::Command::new(&python)
+        .arg(&script)
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("rows 20"), "{stdout}");
+    assert!(stdout.contains("columns 506"), "{stdout}");
+    assert!(
+        stdout.contains("first sample column rps1_t0000"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("metadata instances 20"), "{stdout}");
+}
