@@ -14,5 +14,6 @@
 
 pub mod bank;
 pub mod cli;
+pub mod identify;
 pub mod model;
 pub mod report;

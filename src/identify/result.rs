@@ -1,0 +1,172 @@
+//! The machine-readable result of one identification (written as JSON, drawn by the report).
+
+use serde::{Deserialize, Serialize};
+
+/// How the measurement was put on the bank's time axis.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Alignment {
+    /// `"laser trigger"` or `"cross-correlation"`.
+    pub method: String,
+    /// Bank time = measurement time + `shift_s`.
+    pub shift_s: f64,
+    /// For cross-correlation: the normalised correlation at the chosen shift (1 = perfect).
+    pub correlation: Option<f64>,
+}
+
+/// One measured series, resampled onto a sensor's bank window.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MeasuredSeries {
+    /// Sensor name.
+    pub sensor: String,
+    /// Bank time of sample 0 (s).
+    pub t0_s: f64,
+    /// Sample rate (Hz).
+    pub sample_rate_hz: f64,
+    /// Measured force (kN) at the bank's sample times.
+    pub values_kn: Vec<f64>,
+}
+
+/// A candidate comparison point: a perceptually important point (PIP) of a measured series.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CandidatePoint {
+    /// Index into [`Identification::series`].
+    pub series: usize,
+    /// Sample index within the series' window.
+    pub sample: usize,
+    /// Bank time (s).
+    pub time_s: f64,
+    /// Measured force (kN).
+    pub measured_kn: f64,
+    /// Order in which PIP selection found it within its series (0 and 1: the end points).
+    pub pip_order: usize,
+    /// Entropy of the bank's predictions at this point (bits), bin width = threshold width.
+    pub entropy_bits: f64,
+    /// Lower falsification threshold on `prediction − measurement` (kN), for the final number
+    /// of comparison points (Šídák).
+    pub threshold_low_kn: f64,
+    /// Upper threshold (kN).
+    pub threshold_high_kn: f64,
+}
+
+/// Joint entropy as points are added greedily, for one set of sensors (paper Fig. 16).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EntropyCurve {
+    /// Sensor set, e.g. `"rps1+rps2"`.
+    pub label: String,
+    /// Joint entropy (bits) after 1, 2, … points.
+    pub joint_entropy_bits: Vec<f64>,
+}
+
+/// Parameters of one model instance.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct InstanceParams {
+    /// Instance number in the bank.
+    pub instance: u32,
+    /// Flat length L (mm).
+    pub length_mm: f64,
+    /// Flat depth d (mm).
+    pub depth_mm: f64,
+    /// Curvature c (mm).
+    pub curvature_mm: f64,
+    /// Impact position X_p (m).
+    pub impact_position_m: f64,
+    /// Fresh-flat length L0 = sqrt(8·d·R_w) (mm).
+    pub l0_mm: f64,
+}
+
+/// `[min, max]` of each parameter over a set of instances.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ParamRanges {
+    /// L (mm).
+    pub length_mm: [f64; 2],
+    /// d (mm).
+    pub depth_mm: [f64; 2],
+    /// c (mm).
+    pub curvature_mm: [f64; 2],
+    /// X_p (m).
+    pub impact_position_m: [f64; 2],
+    /// L0 (mm).
+    pub l0_mm: [f64; 2],
+}
+
+/// Result of falsification with one set of comparison points.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Falsification {
+    /// Method name (`"EIP (joint entropy)"`, `"equidistant"`, …).
+    pub method: String,
+    /// Comparison points (indices into [`Identification::candidates`], or for equidistant
+    /// points their own list in `points_detail`).
+    pub points: usize,
+    /// Candidate model set size.
+    pub cms_count: usize,
+    /// Parameter ranges of the CMS (none when empty).
+    pub ranges: Option<ParamRanges>,
+}
+
+/// Distribution of CMS sizes over random subsets of the PIPs (paper §4.5, Fig. 18).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RandomSubsets {
+    /// Number of subsets drawn.
+    pub subsets: usize,
+    /// Points per subset (= number of EIP).
+    pub size: usize,
+    /// CMS size of every subset.
+    pub cms_counts: Vec<usize>,
+    /// Mean CMS size.
+    pub mean: f64,
+    /// Median CMS size.
+    pub median: f64,
+    /// Seed of the draw.
+    pub seed: u64,
+}
+
+/// Everything one identification found.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Identification {
+    /// The measurement file.
+    pub measurement: String,
+    /// Bank identity and size.
+    pub bank_id: String,
+    /// Instances in the bank.
+    pub bank_instances: usize,
+    /// Population bounds of the bank (axes of the parallel-coordinates plot).
+    pub population: ParamRanges,
+    /// Alignment to the bank's time axis.
+    pub alignment: Alignment,
+    /// The measured series used, on the bank's windows.
+    pub series: Vec<MeasuredSeries>,
+    /// PIP distance measure (`vertical`, `perpendicular`, `euclidean`).
+    pub pip_distance: String,
+    /// PIPs per series.
+    pub pips_per_series: usize,
+    /// All candidate points (PIPs of all series).
+    pub candidates: Vec<CandidatePoint>,
+    /// Selected points (EIP), indices into `candidates`, in selection order.
+    pub eip: Vec<usize>,
+    /// Joint entropy after each EIP (bits).
+    pub eip_joint_entropy_bits: Vec<f64>,
+    /// Stop threshold α of the greedy selection (bits).
+    pub alpha_bits: f64,
+    /// Joint entropy curves for each sensor alone and for all together.
+    pub entropy_curves: Vec<EntropyCurve>,
+    /// Target identification probability φ.
+    pub phi: f64,
+    /// Šídák per-point probability `φ^(1/m)`.
+    pub per_point_probability: f64,
+    /// The candidate model set.
+    pub cms: Vec<InstanceParams>,
+    /// Falsification with the EIP (the method's answer) and the baselines.
+    pub falsifications: Vec<Falsification>,
+    /// Residual minimisation without uncertainties over the EIP (paper §4.4).
+    pub residual_minimisation: InstanceParams,
+    /// Random subsets of the PIPs (paper §4.5).
+    pub random_subsets: Option<RandomSubsets>,
+    /// True when every instance was falsified: the model class itself is refuted.
+    pub model_class_refuted: bool,
+    /// One-paragraph verdict for people.
+    pub summary: String,
+    /// Maintenance hint (severity rule stated).
+    pub maintenance_hint: String,
+    /// Wall-clock of the stages (ms).
+    pub timings_ms: Vec<(String, f64)>,
+}
