@@ -202,6 +202,20 @@ pub fn generate(
             rows: opts.shard_size.min(opts.instances - first),
         }
     };
+    let simulator = Simulator::new(cal)?;
+    let axes_now = sensor_axes(cal);
+    let flat_free = simulator.run(None, Record::default())?;
+    let flat_free_kn = axes_now
+        .iter()
+        .enumerate()
+        .map(|(s, a)| {
+            flat_free
+                .window(s, a.first_sample, a.samples)
+                .iter()
+                .map(|v| (v / 1e3) as f32)
+                .collect()
+        })
+        .collect();
     let base_meta = BankMetadata {
         format_version: FORMAT_VERSION,
         generator: format!("wheelflat {}", env!("CARGO_PKG_VERSION")),
@@ -214,8 +228,9 @@ pub fn generate(
         seed: opts.seed,
         shard_size: opts.shard_size,
         shard: shard_info(0),
-        sensors: sensor_axes(cal),
+        sensors: axes_now,
         force_unit: "kN".into(),
+        flat_free_kn,
     };
 
     // Which files are already complete (renamed into place only when whole, and their footer

@@ -84,6 +84,9 @@ pub struct BankMetadata {
     pub sensors: Vec<SensorAxis>,
     /// Unit of the sample columns.
     pub force_unit: String,
+    /// The good wheel's (flat-free) prediction in every sensor window (kN): the template for
+    /// aligning a measurement by cross-correlation without simulating.
+    pub flat_free_kn: Vec<Vec<f32>>,
 }
 
 /// One shard file in the manifest.
@@ -129,7 +132,8 @@ pub fn calibration_sha256(cal: &CheckedCalibration) -> String {
     sha256_hex(cal.document().to_toml_string().as_bytes())
 }
 
-/// Bank identity: everything that determines the bytes of the bank.
+/// Bank identity: everything that determines the simulated values and their storage
+/// (the calibration without its `[identification]` settings, which do not change them).
 pub fn bank_id(
     cal: &CheckedCalibration,
     instances: usize,
@@ -139,7 +143,7 @@ pub fn bank_id(
 ) -> String {
     let key = format!(
         "{}\nformat={FORMAT_VERSION}\nmodel={MODEL_REVISION}\ngenerator={}\ninstances={instances}\nseed={seed}\nshard_size={shard_size}\nstorage={storage}\n",
-        cal.document().to_toml_string(),
+        cal.document().model_toml_string(),
         env!("CARGO_PKG_VERSION"),
     );
     sha256_hex(key.as_bytes())[..16].to_string()

@@ -4,6 +4,7 @@
 use crate::bank::{
     self, Codec, GenerateObserver, GenerateOptions, Outcome, StorageFormat, ValueEncoding,
 };
+use crate::identify::{self, Extras, Identification, Identifier, Measurement};
 use crate::model::{Calibration, CheckedCalibration, Flat, Record, Response, Simulator};
 use crate::report::plot::{draw_pad_forces, PadForcePlot, Series};
 use anyhow::{Context, Result};
@@ -39,6 +40,13 @@ enum Command {
         #[command(subcommand)]
         command: BankCommand,
     },
+    /// Make a field-like measurement from a chosen true flat (simulated, then perturbed with
+    /// errors drawn inside the uncertainty table), with a truth JSON.
+    Synth(SynthArgs),
+    /// Identify the flat size behind a measurement from a bank: JSON, figures, HTML report.
+    Identify(IdentifyArgs),
+    /// Print the paper-style comparison of the method with its baselines for one measurement.
+    Compare(CompareArgs),
     /// Run the main job on built-in defaults and write its outputs to a folder.
     Demo {
         /// Output folder.
@@ -117,6 +125,65 @@ fn parse_shard(s: &str) -> std::result::Result<(usize, usize), String> {
 }
 
 #[derive(Debug, Args)]
+struct SynthArgs {
+    #[command(flatten)]
+    flat: FlatArgs,
+    /// Calibration file (TOML); the built-in defaults when omitted.
+    #[arg(long)]
+    calibration: Option<PathBuf>,
+    /// Seed of the perturbation.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Measurement CSV to write.
+    #[arg(long)]
+    out: PathBuf,
+    /// Truth JSON to write (default: the CSV path with `.truth.json`).
+    #[arg(long)]
+    truth: Option<PathBuf>,
+    /// Leave the laser trigger time out (alignment then uses cross-correlation).
+    #[arg(long)]
+    no_trigger: bool,
+}
+
+#[derive(Debug, Args)]
+struct MeasuredArgs {
+    /// Bank directory.
+    #[arg(long, default_value = "bank")]
+    bank: PathBuf,
+    /// Measurement CSV (`time_s,<sensor>_kn,…`).
+    #[arg(long)]
+    measured: PathBuf,
+    /// Only these sensors, e.g. `rps1,rps2` (a broken sensor is left out).
+    #[arg(long, value_delimiter = ',')]
+    sensors: Option<Vec<String>>,
+    /// Identification settings and uncertainty table from this calibration file instead of
+    /// the bank's.
+    #[arg(long)]
+    calibration: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+struct IdentifyArgs {
+    #[command(flatten)]
+    input: MeasuredArgs,
+    /// Report folder (JSON, PNG/SVG figures, report.html).
+    #[arg(long)]
+    out: PathBuf,
+    /// Skip the baselines (residual minimisation is always reported) and entropy curves.
+    #[arg(long)]
+    no_baselines: bool,
+}
+
+#[derive(Debug, Args)]
+struct CompareArgs {
+    #[command(flatten)]
+    input: MeasuredArgs,
+    /// Truth JSON from `synth`, to mark whether each method's range holds it.
+    #[arg(long)]
+    truth: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
 struct FlatArgs {
     /// Flat length L (mm).
     #[arg(long = "l-mm", default_value_t = 60.0)]
@@ -165,6 +232,9 @@ pub fn main() -> ExitCode {
             BankCommand::Info { dir } => cmd_bank_info(&dir),
             BankCommand::Verify { dir } => cmd_bank_verify(&dir),
         },
+        Command::Synth(a) => cmd_synth(&a),
+        Command::Identify(a) => cmd_identify(&a),
+        Command::Compare(a) => cmd_compare(&a),
         Command::Demo { out } => cmd_demo(&out),
     };
     match result {
@@ -627,4 +697,173 @@ fn cmd_bank_verify(dir: &Path) -> Result<()> {
         problems.len(),
         manifest.files.len()
     )
+}
+
+fn cmd_synth(a: &SynthArgs) -> Result<()> {
+    let cal = load_calibration(a.calibration.as_deref())?;
+    let flat = flat_from_args(&a.flat)?.context("synth needs a flat (drop --no-flat)")?;
+    let syn = identify::synth::synthesize(&cal, &flat, a.seed, !a.no_trigger)?;
+    let truth_path = a
+        .truth
+        .clone()
+        .unwrap_or_else(|| a.out.with_extension("truth.json"));
+    write_atomically(&a.out, syn.csv.as_bytes())?;
+    let json = serde_json::to_string_pretty(&syn.truth).expect("truth serialises");
+    write_atomically(&truth_path, json.as_bytes())?;
+    println!(
+        "synthetic measurement of {} (L0 {:.1} mm), seed {}: wrote {} and {}",
+        flat_title(Some(&flat)),
+        syn.truth.l0_mm,
+        a.seed,
+        a.out.display(),
+        truth_path.display()
+    );
+    Ok(())
+}
+
+/// Opens the bank and the identification settings, reads the measurement.
+fn open_identifier(a: &MeasuredArgs) -> Result<(Identifier, Measurement)> {
+    let bank = bank::Bank::open(&a.bank)
+        .with_context(|| format!("cannot open bank {}", a.bank.display()))?;
+    let settings = match &a.calibration {
+        Some(p) => load_calibration(Some(p))?.identification.clone(),
+        None => bank.metadata().calibration.identification.clone(),
+    };
+    let rate = bank.metadata().sensors[0].sample_rate_hz;
+    let text = std::fs::read_to_string(&a.measured)
+        .with_context(|| format!("cannot read measurement {}", a.measured.display()))?;
+    let m = Measurement::from_csv(&a.measured, &text, rate)?;
+    Ok((Identifier::new(bank, settings)?, m))
+}
+
+fn range_text(
+    r: &Option<crate::identify::result::ParamRanges>,
+    f: fn(&crate::identify::result::ParamRanges) -> [f64; 2],
+    digits: usize,
+) -> String {
+    match r {
+        Some(r) => {
+            let [lo, hi] = f(r);
+            format!("[{lo:.digits$}, {hi:.digits$}]")
+        }
+        None => "—".into(),
+    }
+}
+
+/// The paper-style comparison table of an identification.
+pub fn comparison_table(id: &Identification, truth: Option<&identify::synth::Truth>) -> String {
+    let mut s = format!(
+        "{:<34} {:>6} {:>7}  {:<16} {:<16} {:<14}\n",
+        "method", "points", "CMS", "L0 (mm)", "L (mm)", "d (mm)"
+    );
+    for f in &id.falsifications {
+        s += &format!(
+            "{:<34} {:>6} {:>7}  {:<16} {:<16} {:<14}\n",
+            f.method,
+            f.points,
+            f.cms_count,
+            range_text(&f.ranges, |r| r.l0_mm, 0),
+            range_text(&f.ranges, |r| r.length_mm, 0),
+            range_text(&f.ranges, |r| r.depth_mm, 2)
+        );
+    }
+    let rm = &id.residual_minimisation;
+    s += &format!(
+        "{:<34} {:>6} {:>7}  {:<16} {:<16} {:<14}\n",
+        "residual minimisation (no unc.)",
+        id.eip.len(),
+        1,
+        format!("{:.0}", rm.l0_mm),
+        format!("{:.0}", rm.length_mm),
+        format!("{:.2}", rm.depth_mm)
+    );
+    if let Some(rs) = &id.random_subsets {
+        s += &format!(
+            "random subsets: {} draws of {} PIPs, CMS mean {:.1}, median {:.1}\n",
+            rs.subsets, rs.size, rs.mean, rs.median
+        );
+    }
+    if let Some(t) = truth {
+        s += &format!(
+            "truth: L0 {:.1} mm, L {:.1} mm, d {:.3} mm, X_p {:.3} m\n",
+            t.l0_mm, t.length_mm, t.depth_mm, t.impact_position_m
+        );
+        for f in &id.falsifications {
+            if let Some(r) = &f.ranges {
+                let inside = |x: f64, [lo, hi]: [f64; 2]| lo <= x && x <= hi;
+                let ok = inside(t.length_mm, r.length_mm) && inside(t.depth_mm, r.depth_mm);
+                s += &format!(
+                    "  {:<32} truth (L, d) inside its ranges: {}\n",
+                    f.method,
+                    if ok { "yes" } else { "NO" }
+                );
+            }
+        }
+    }
+    s
+}
+
+fn print_identification(id: &Identification) {
+    println!("{}", id.summary);
+    println!("{}", id.maintenance_hint);
+    println!(
+        "alignment: {} (bank time = file time {:+.4} s{}); {} EIP of {} PIPs; per-point probability {:.5}",
+        id.alignment.method,
+        id.alignment.shift_s,
+        id.alignment.correlation.map(|c| format!(", correlation {c:.4}")).unwrap_or_default(),
+        id.eip.len(),
+        id.candidates.len(),
+        id.per_point_probability
+    );
+    let t: Vec<String> = id
+        .timings_ms
+        .iter()
+        .map(|(n, ms)| format!("{n} {ms:.1} ms"))
+        .collect();
+    println!("timings: {}", t.join(", "));
+}
+
+fn cmd_identify(a: &IdentifyArgs) -> Result<()> {
+    let (identifier, m) = open_identifier(&a.input)?;
+    let extras = Extras {
+        baselines: !a.no_baselines,
+        curves: !a.no_baselines,
+    };
+    let id = identifier.identify(&m, a.input.sensors.as_deref(), extras)?;
+    let files = crate::report::identify::write_identification_report(&id, &a.out)
+        .with_context(|| format!("cannot write the report in {}", a.out.display()))?;
+    print_identification(&id);
+    print!("{}", comparison_table(&id, None));
+    println!(
+        "wrote {} and {} ({} figures)",
+        files.json.display(),
+        files.html.display(),
+        files.figures.len()
+    );
+    Ok(())
+}
+
+fn cmd_compare(a: &CompareArgs) -> Result<()> {
+    let (identifier, m) = open_identifier(&a.input)?;
+    let truth = match &a.truth {
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("cannot read truth {}", p.display()))?;
+            Some(
+                serde_json::from_str::<identify::synth::Truth>(&text)
+                    .with_context(|| format!("in truth file {}", p.display()))?,
+            )
+        }
+        None => None,
+    };
+    let id = identifier.identify(
+        &m,
+        a.input.sensors.as_deref(),
+        Extras {
+            baselines: true,
+            curves: false,
+        },
+    )?;
+    print!("{}", comparison_table(&id, truth.as_ref()));
+    Ok(())
 }

@@ -1,6 +1,606 @@
 //! Identification from the bank (paper §2–3, MODEL.md §7–8): perceptually important points
 //! of the measured series, joint-entropy selection, error-domain model falsification.
+//!
+//! [`Identifier::new`] opens what is reused across measurements (the memory-mapped bank, its
+//! parameters, the Monte Carlo uncertainty samples); [`Identifier::identify`] is the per-
+//! measurement path: align, PIP, read the candidate columns, entropy selection, falsify.
 
+pub mod coverage;
+pub mod entropy;
+pub mod falsify;
+pub mod measurement;
+pub mod pip;
 pub mod result;
+pub mod synth;
+pub mod uncertainty;
 
+pub use measurement::Measurement;
 pub use result::Identification;
+
+use crate::bank::{Bank, BankError, Parameters};
+use crate::model::calibration::IdentificationParams;
+use entropy::{bin_predictions, entropy, greedy_joint_entropy, Binned};
+use falsify::{falsify, random_subset_counts, residual_minimisation, Point};
+use pip::{perceptually_important_points, PipDistance};
+use result::{
+    Alignment, CandidatePoint, EntropyCurve, Falsification, InstanceParams, MeasuredSeries,
+    ParamRanges, RandomSubsets,
+};
+use std::path::PathBuf;
+use std::sync::Mutex;
+use std::time::Instant;
+use thiserror::Error;
+use uncertainty::CombinedUncertainty;
+
+/// Errors of identification.
+#[derive(Debug, Error)]
+pub enum IdentifyError {
+    /// A measurement file is malformed.
+    #[error("{path}, line {line}: {message}")]
+    Measurement {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// What is wrong, with the value.
+        message: String,
+    },
+    /// The measurement does not cover a sensor's bank window after alignment.
+    #[error("{path}: sensor `{sensor}` needs samples from {:.4} s to {:.4} s (file clock); the record spans {:.4} s to {:.4} s", needed[0], needed[1], recorded[0], recorded[1])]
+    TooShort {
+        /// The file.
+        path: PathBuf,
+        /// The sensor.
+        sensor: String,
+        /// Needed span (file clock).
+        needed: [f64; 2],
+        /// Recorded span.
+        recorded: [f64; 2],
+    },
+    /// A sensor is not in the bank, or none is usable.
+    #[error("{path}: {message}")]
+    Sensors {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// The bank could not be read.
+    #[error(transparent)]
+    Bank(#[from] BankError),
+    /// Invalid settings.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// Which optional parts of the analysis to run besides the method itself.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Extras {
+    /// Residual minimisation, random subsets and equidistant points (paper §4.4–4.6).
+    pub baselines: bool,
+    /// Joint entropy curves per sensor set (paper Fig. 16).
+    pub curves: bool,
+}
+
+/// What is kept open between measurements.
+pub struct Identifier {
+    bank: Bank,
+    params: Parameters,
+    /// (anchor instance, its nearest neighbour in normalised parameter space).
+    neighbours: Vec<(usize, usize)>,
+    settings: IdentificationParams,
+    uncertainty: CombinedUncertainty,
+    buffers: Mutex<Vec<Vec<f32>>>,
+}
+
+fn ranges_of(
+    params: &Parameters,
+    members: impl Iterator<Item = usize> + Clone,
+) -> Option<ParamRanges> {
+    members.clone().next()?;
+    let r = |v: &[f64]| {
+        members.clone().fold([f64::MAX, f64::MIN], |[lo, hi], k| {
+            [lo.min(v[k]), hi.max(v[k])]
+        })
+    };
+    Some(ParamRanges {
+        length_mm: r(&params.length_mm),
+        depth_mm: r(&params.depth_mm),
+        curvature_mm: r(&params.curvature_mm),
+        impact_position_m: r(&params.impact_position_m),
+        l0_mm: r(&params.l0_mm),
+    })
+}
+
+fn instance(params: &Parameters, k: usize) -> InstanceParams {
+    InstanceParams {
+        instance: params.instance[k],
+        length_mm: params.length_mm[k],
+        depth_mm: params.depth_mm[k],
+        curvature_mm: params.curvature_mm[k],
+        impact_position_m: params.impact_position_m[k],
+        l0_mm: params.l0_mm[k],
+    }
+}
+
+impl Identifier {
+    /// Opens the reusable state for a bank, with identification settings (the bank's stored
+    /// calibration's, or the user's).
+    pub fn new(bank: Bank, settings: IdentificationParams) -> Result<Identifier, IdentifyError> {
+        let params = bank.read_parameters()?;
+        let uncertainty = CombinedUncertainty::new(&settings);
+        let neighbours = nearest_neighbours(&params, &bank.metadata().calibration.population, 256);
+        Ok(Identifier {
+            bank,
+            params,
+            neighbours,
+            settings,
+            uncertainty,
+            buffers: Mutex::new(Vec::new()),
+        })
+    }
+
+    /// The bank.
+    pub fn bank(&self) -> &Bank {
+        &self.bank
+    }
+
+    /// The settings in use.
+    pub fn settings(&self) -> &IdentificationParams {
+        &self.settings
+    }
+
+    /// Population-sampling bound at a point: the quantile `q` (the per-point probability) of
+    /// `|g(a) − g(nn(a))|` over the anchor instances (0 when the term is switched off).
+    fn sampling_bound(&self, predictions: &[f32], q: f64) -> f64 {
+        if !self.settings.population_sampling || self.neighbours.is_empty() {
+            return 0.0;
+        }
+        let mut d: Vec<f64> = self
+            .neighbours
+            .iter()
+            .map(|&(a, b)| (predictions[a] as f64 - predictions[b] as f64).abs())
+            .collect();
+        d.sort_by(f64::total_cmp);
+        let k = ((q * d.len() as f64).ceil() as usize).clamp(1, d.len()) - 1;
+        d[k]
+    }
+
+    /// Identifies the flat behind one measurement. `sensors` restricts the sensors used.
+    pub fn identify(
+        &self,
+        m: &Measurement,
+        sensors: Option<&[String]>,
+        extras: Extras,
+    ) -> Result<Identification, IdentifyError> {
+        let mut timings = Vec::new();
+        let mut clock = Instant::now();
+        let mut lap = |name: &str, timings: &mut Vec<(String, f64)>| {
+            timings.push((name.to_string(), clock.elapsed().as_secs_f64() * 1e3));
+            clock = Instant::now();
+        };
+        let meta = self.bank.metadata();
+        let cal = &meta.calibration;
+        let s = &self.settings;
+        let distance = PipDistance::parse(&s.pip_distance).ok_or_else(|| {
+            IdentifyError::Invalid(format!("unknown PIP distance `{}`", s.pip_distance))
+        })?;
+
+        // Sensors: those in the file (and asked for), each must be in the bank.
+        let mut used: Vec<(usize, usize)> = Vec::new(); // (measurement index, bank axis index)
+        for (mi, name) in m.sensors.iter().enumerate() {
+            if sensors.is_some_and(|list| !list.iter().any(|x| x == name)) {
+                continue;
+            }
+            let bi = meta
+                .sensors
+                .iter()
+                .position(|a| &a.name == name)
+                .ok_or_else(|| IdentifyError::Sensors {
+                    path: m.path.clone(),
+                    message: format!(
+                        "sensor `{name}` is not in the bank (bank sensors: {})",
+                        meta.sensors
+                            .iter()
+                            .map(|a| a.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                })?;
+            used.push((mi, bi));
+        }
+        if let Some(list) = sensors {
+            for name in list {
+                if !m.sensors.contains(name) {
+                    return Err(IdentifyError::Sensors {
+                        path: m.path.clone(),
+                        message: format!(
+                            "sensor `{name}` was asked for but the file has no `{name}_kn` column"
+                        ),
+                    });
+                }
+            }
+        }
+        if used.is_empty() {
+            return Err(IdentifyError::Sensors {
+                path: m.path.clone(),
+                message: "no usable sensor".into(),
+            });
+        }
+        if let Some(v) = m.speed_km_per_h {
+            if (v / cal.run.speed_km_per_h - 1.0).abs() > 0.02 {
+                return Err(IdentifyError::Measurement {
+                    path: m.path.clone(),
+                    line: 1,
+                    message: format!(
+                        "speed {v} km/h differs from the bank's {} km/h by more than 2 %",
+                        cal.run.speed_km_per_h
+                    ),
+                });
+            }
+        }
+
+        // Alignment.
+        let speed = cal.run.speed_km_per_h / 3.6;
+        let alignment = match m.laser_trigger_s {
+            Some(t) => {
+                let t_bank = (cal.sensors.laser_trigger_m - cal.run.leading_wheel_start_m) / speed;
+                Alignment {
+                    method: "laser trigger".into(),
+                    shift_s: t_bank - t,
+                    correlation: None,
+                }
+            }
+            None => {
+                let pairs: Vec<(usize, &crate::bank::schema::SensorAxis, &[f32])> = used
+                    .iter()
+                    .map(|&(mi, bi)| (mi, &meta.sensors[bi], meta.flat_free_kn[bi].as_slice()))
+                    .collect();
+                let (shift_s, c) = measurement::cross_correlate(m, &pairs).ok_or_else(|| {
+                    IdentifyError::TooShort {
+                        path: m.path.clone(),
+                        sensor: m.sensors[used[0].0].clone(),
+                        needed: [meta.sensors[used[0].1].t0_s, meta.sensors[used[0].1].t0_s],
+                        recorded: [m.t0_s, m.t0_s + (m.len() - 1) as f64 * m.dt_s],
+                    }
+                })?;
+                Alignment {
+                    method: "cross-correlation".into(),
+                    shift_s,
+                    correlation: Some(c),
+                }
+            }
+        };
+        let mut series = Vec::with_capacity(used.len());
+        for &(mi, bi) in &used {
+            let axis = &meta.sensors[bi];
+            series.push(MeasuredSeries {
+                sensor: axis.name.clone(),
+                t0_s: axis.t0_s,
+                sample_rate_hz: axis.sample_rate_hz,
+                values_kn: m.on_window(mi, axis, alignment.shift_s)?,
+            });
+        }
+        lap("align", &mut timings);
+
+        // PIPs → candidate points.
+        let mut cands: Vec<(usize, usize, usize)> = Vec::new(); // (series, sample, pip order)
+        for (si, ser) in series.iter().enumerate() {
+            for (order, k) in
+                perceptually_important_points(&ser.values_kn, s.pips_per_series, distance)
+                    .into_iter()
+                    .enumerate()
+            {
+                cands.push((si, k, order));
+            }
+        }
+        lap("pip", &mut timings);
+
+        // Bank predictions at the candidates (the hot read).
+        let cols: Vec<usize> = cands
+            .iter()
+            .map(|&(si, k, _)| self.bank.sample_index(used[si].1, k))
+            .collect();
+        let mut buffers = self.buffers.lock().unwrap_or_else(|e| e.into_inner());
+        self.bank.read_columns_into(&cols, &mut buffers)?;
+        let predictions: &Vec<Vec<f32>> = &buffers;
+        lap("read columns", &mut timings);
+
+        let measured: Vec<f64> = cands
+            .iter()
+            .map(|&(si, k, _)| series[si].values_kn[k])
+            .collect();
+        let n = self.bank.instances();
+        let alpha = s.alpha_fraction * (n as f64).log2();
+        let all: Vec<usize> = (0..cands.len()).collect();
+        // Entropy bins at the Šídák width for m points; m comes from the selection itself, so
+        // select with m = 1, then again with the m found (the widths, and so the choice, change).
+        let bounds = |i: usize, p: f64| {
+            let (lo, hi) = self.uncertainty.thresholds(measured[i], p);
+            let d = self.sampling_bound(&predictions[i], p);
+            (lo - d, hi + d)
+        };
+        let binned_for = |p: f64| -> Vec<Binned> {
+            (0..measured.len())
+                .map(|i| {
+                    let (lo, hi) = bounds(i, p);
+                    bin_predictions(&predictions[i], hi - lo)
+                })
+                .collect()
+        };
+        let first = greedy_joint_entropy(&binned_for(s.phi), &all, alpha, cands.len());
+        let m1 = first.order.len().max(1);
+        let p = s.phi.powf(1.0 / m1 as f64);
+        let binned = binned_for(p);
+        let selection = greedy_joint_entropy(&binned, &all, alpha, m1);
+        let m_final = selection.order.len().max(1);
+        let p_final = s.phi.powf(1.0 / m_final as f64);
+        lap("entropy selection", &mut timings);
+
+        let thresholds: Vec<(f64, f64)> = (0..measured.len()).map(|i| bounds(i, p_final)).collect();
+        let sampling: Vec<f64> = predictions
+            .iter()
+            .map(|g| self.sampling_bound(g, p_final))
+            .collect();
+        let point = |i: usize| Point {
+            predictions: &predictions[i],
+            measured_kn: measured[i],
+            low_kn: thresholds[i].0,
+            high_kn: thresholds[i].1,
+        };
+        let eip_points: Vec<Point> = selection.order.iter().map(|&i| point(i)).collect();
+        let cms_idx = falsify(&eip_points);
+        lap("falsify", &mut timings);
+
+        let candidates: Vec<CandidatePoint> = cands
+            .iter()
+            .enumerate()
+            .map(|(i, &(si, k, order))| CandidatePoint {
+                series: si,
+                sample: k,
+                time_s: series[si].t0_s + k as f64 / series[si].sample_rate_hz,
+                measured_kn: measured[i],
+                pip_order: order,
+                entropy_bits: entropy(&binned[i]),
+                threshold_low_kn: thresholds[i].0,
+                threshold_high_kn: thresholds[i].1,
+                sampling_kn: sampling[i],
+            })
+            .collect();
+        let cms: Vec<InstanceParams> = cms_idx
+            .iter()
+            .map(|&k| instance(&self.params, k as usize))
+            .collect();
+        let cms_ranges = ranges_of(&self.params, cms_idx.iter().map(|&k| k as usize));
+        let mut falsifications = vec![Falsification {
+            method: "EIP (joint entropy)".into(),
+            points: m_final,
+            cms_count: cms.len(),
+            ranges: cms_ranges.clone(),
+        }];
+
+        let rm = residual_minimisation(&eip_points);
+        let mut random_subsets = None;
+        if extras.baselines {
+            let all_points: Vec<Point> = (0..cands.len()).map(point).collect();
+            let counts = random_subset_counts(&all_points, m_final, s.random_subsets, s.seed);
+            let mut sorted = counts.clone();
+            sorted.sort_unstable();
+            let median = if sorted.is_empty() {
+                0.0
+            } else if sorted.len() % 2 == 1 {
+                sorted[sorted.len() / 2] as f64
+            } else {
+                (sorted[sorted.len() / 2 - 1] + sorted[sorted.len() / 2]) as f64 / 2.0
+            };
+            let mean = counts.iter().sum::<usize>() as f64 / counts.len().max(1) as f64;
+            random_subsets = Some(RandomSubsets {
+                subsets: counts.len(),
+                size: m_final,
+                cms_counts: counts,
+                mean,
+                median,
+                seed: s.seed,
+            });
+            falsifications.push(Falsification {
+                method: format!("random PIP subsets (mean of {})", s.random_subsets),
+                points: m_final,
+                cms_count: mean.round() as usize,
+                ranges: None,
+            });
+            // Equidistant points: m spread evenly over the series, equally spaced in each.
+            let mut eq: Vec<(usize, usize)> = Vec::new();
+            for (si, ser) in series.iter().enumerate() {
+                let share = m_final / series.len() + usize::from(si < m_final % series.len());
+                let len = ser.values_kn.len();
+                for j in 0..share {
+                    eq.push((si, ((j as f64 + 0.5) * len as f64 / share as f64) as usize));
+                }
+            }
+            let eq_cols: Vec<usize> = eq
+                .iter()
+                .map(|&(si, k)| self.bank.sample_index(used[si].1, k))
+                .collect();
+            let eq_pred = self.bank.read_columns(&eq_cols)?;
+            let eq_points: Vec<Point> = eq
+                .iter()
+                .zip(&eq_pred)
+                .map(|(&(si, k), g)| {
+                    let y = series[si].values_kn[k];
+                    let (lo, hi) = self.uncertainty.thresholds(y, p_final);
+                    let d = self.sampling_bound(g, p_final);
+                    Point {
+                        predictions: g,
+                        measured_kn: y,
+                        low_kn: lo - d,
+                        high_kn: hi + d,
+                    }
+                })
+                .collect();
+            let eq_cms = falsify(&eq_points);
+            falsifications.push(Falsification {
+                method: "equidistant points".into(),
+                points: eq_points.len(),
+                cms_count: eq_cms.len(),
+                ranges: ranges_of(&self.params, eq_cms.iter().map(|&k| k as usize)),
+            });
+            lap("baselines", &mut timings);
+        }
+
+        let mut entropy_curves = Vec::new();
+        if extras.curves {
+            let mut sets: Vec<(String, Vec<usize>)> = series
+                .iter()
+                .enumerate()
+                .map(|(si, ser)| {
+                    (
+                        ser.sensor.clone(),
+                        (0..cands.len()).filter(|&i| cands[i].0 == si).collect(),
+                    )
+                })
+                .collect();
+            if series.len() > 1 {
+                let label = series
+                    .iter()
+                    .map(|s| s.sensor.as_str())
+                    .collect::<Vec<_>>()
+                    .join("+");
+                sets.push((label, all.clone()));
+            }
+            for (label, allowed) in sets {
+                let sel = greedy_joint_entropy(&binned, &allowed, 0.0, allowed.len());
+                entropy_curves.push(EntropyCurve {
+                    label,
+                    joint_entropy_bits: sel.joint_bits,
+                });
+            }
+            lap("entropy curves", &mut timings);
+        }
+
+        let population = ParamRanges {
+            length_mm: cal.population.length_mm,
+            depth_mm: cal.population.depth_mm,
+            curvature_mm: cal.population.curvature_mm,
+            impact_position_m: cal.population.impact_position_m,
+            l0_mm: [
+                (8.0 * cal.population.depth_mm[0] * cal.vehicle.wheel_radius_m * 1e3).sqrt(),
+                (8.0 * cal.population.depth_mm[1] * cal.vehicle.wheel_radius_m * 1e3).sqrt(),
+            ],
+        };
+        let refuted = cms.is_empty();
+        let (summary, hint) = summarise(&cms_ranges, cms.len(), n, m_final, s);
+        Ok(Identification {
+            measurement: m.path.display().to_string(),
+            bank_id: meta.bank_id.clone(),
+            bank_instances: n,
+            population,
+            alignment,
+            series,
+            pip_distance: s.pip_distance.clone(),
+            pips_per_series: s.pips_per_series,
+            candidates,
+            eip: selection.order,
+            eip_joint_entropy_bits: selection.joint_bits,
+            alpha_bits: alpha,
+            entropy_curves,
+            phi: s.phi,
+            per_point_probability: p_final,
+            cms,
+            falsifications,
+            residual_minimisation: instance(&self.params, rm),
+            random_subsets,
+            model_class_refuted: refuted,
+            summary,
+            maintenance_hint: hint,
+            timings_ms: timings,
+        })
+    }
+}
+
+/// For `anchors` instances spread over the bank, the nearest other instance in parameter
+/// space (L, d, c, X_p each scaled to its population range). Brute force: anchors × N.
+fn nearest_neighbours(
+    p: &Parameters,
+    ranges: &crate::model::calibration::PopulationParams,
+    anchors: usize,
+) -> Vec<(usize, usize)> {
+    let n = p.length_mm.len();
+    if n < 2 {
+        return Vec::new();
+    }
+    let scale = |r: [f64; 2]| {
+        if r[1] > r[0] {
+            1.0 / (r[1] - r[0])
+        } else {
+            0.0
+        }
+    };
+    let s = [
+        scale(ranges.length_mm),
+        scale(ranges.depth_mm),
+        scale(ranges.curvature_mm),
+        scale(ranges.impact_position_m),
+    ];
+    let x: Vec<[f64; 4]> = (0..n)
+        .map(|k| {
+            [
+                p.length_mm[k] * s[0],
+                p.depth_mm[k] * s[1],
+                p.curvature_mm[k] * s[2],
+                p.impact_position_m[k] * s[3],
+            ]
+        })
+        .collect();
+    let step = (n / anchors.min(n)).max(1);
+    use rayon::prelude::*;
+    (0..n)
+        .step_by(step)
+        .take(anchors)
+        .collect::<Vec<_>>()
+        .par_iter()
+        .map(|&a| {
+            let best = (0..n)
+                .filter(|&b| b != a)
+                .map(|b| (b, (0..4).map(|j| (x[a][j] - x[b][j]).powi(2)).sum::<f64>()))
+                .fold(
+                    (usize::MAX, f64::MAX),
+                    |acc, (b, d)| if d < acc.1 { (b, d) } else { acc },
+                );
+            (a, best.0)
+        })
+        .collect()
+}
+
+/// The human verdict and the maintenance hint (rule stated in the text).
+fn summarise(
+    r: &Option<ParamRanges>,
+    count: usize,
+    n: usize,
+    m: usize,
+    s: &IdentificationParams,
+) -> (String, String) {
+    match r {
+        None => (
+            format!(
+                "Every one of the {n} model instances is falsified at {m} comparison points (φ = {}): the model class itself is refuted. The measurement shows something the model lacks; run `wheelflat diagnose` to locate and name it.",
+                s.phi
+            ),
+            "No flat size can be given: inspect the wheelset and the track at the sensors before relying on this system.".into(),
+        ),
+        Some(r) => {
+            let summary = format!(
+                "{count} of {n} model instances survive {m} comparison points (φ = {}): flat length L in [{:.0}, {:.0}] mm, depth d in [{:.2}, {:.2}] mm, fresh-flat length L0 in [{:.0}, {:.0}] mm, impact at X_p in [{:.2}, {:.2}] m.",
+                s.phi, r.length_mm[0], r.length_mm[1], r.depth_mm[0], r.depth_mm[1], r.l0_mm[0], r.l0_mm[1], r.impact_position_m[0], r.impact_position_m[1]
+            );
+            let upper = r.l0_mm[1];
+            let hint = if upper >= s.urgent_l0_mm {
+                format!("Remove the wheelset from service within 24 hours: the largest L0 that fits the measurement ({upper:.0} mm) reaches the urgent limit of {:.0} mm (rule: upper L0 bound ≥ urgent_l0_mm).", s.urgent_l0_mm)
+            } else if upper >= s.inspect_l0_mm {
+                format!("Inspect the wheel at the next opportunity: the largest L0 that fits ({upper:.0} mm) is between the inspection limit {:.0} mm and the urgent limit {:.0} mm.", s.inspect_l0_mm, s.urgent_l0_mm)
+            } else {
+                format!("Monitor: the largest L0 that fits ({upper:.0} mm) is below the inspection limit of {:.0} mm.", s.inspect_l0_mm)
+            };
+            (summary, hint)
+        }
+    }
+}

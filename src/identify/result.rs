@@ -46,6 +46,8 @@ pub struct CandidatePoint {
     pub threshold_low_kn: f64,
     /// Upper threshold (kN).
     pub threshold_high_kn: f64,
+    /// Population-sampling bound included in the thresholds (kN).
+    pub sampling_kn: f64,
 }
 
 /// Joint entropy as points are added greedily, for one set of sensors (paper Fig. 16).

@@ -189,6 +189,114 @@ pub struct PopulationParams {
     pub impact_position_m: [f64; 2],
 }
 
+/// Whether an uncertainty source scales with the force or is a fixed amount.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum UncertaintyKind {
+    /// A fraction of the force (`min`, `max` as fractions, e.g. -0.15).
+    Relative,
+    /// A fixed amount in kN.
+    AbsoluteKn,
+}
+
+/// Whether a source belongs to the model or to the measurement (paper Table 2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum UncertaintyGroup {
+    /// Model error: prediction minus truth.
+    Model,
+    /// Measurement error: measurement minus truth.
+    Measurement,
+}
+
+/// One uniform uncertainty source (MODEL.md §7).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UncertaintySource {
+    /// Model or measurement.
+    pub group: UncertaintyGroup,
+    /// What it is, e.g. "train system".
+    pub name: String,
+    /// Relative or absolute.
+    pub kind: UncertaintyKind,
+    /// Lower bound of the uniform distribution.
+    pub min: f64,
+    /// Upper bound.
+    pub max: f64,
+}
+
+/// Identification settings (paper §2–3, MODEL.md §7–8). Not part of a bank's identity.
+/// Keys left out take their defaults.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct IdentificationParams {
+    /// Target identification probability φ (Šídák: each point gets `φ^(1/m)`).
+    pub phi: f64,
+    /// Perceptually important points per series (paper: 30).
+    pub pips_per_series: usize,
+    /// PIP distance: "vertical", "perpendicular" or "euclidean".
+    pub pip_distance: String,
+    /// Greedy joint-entropy selection stops when the gain is below `alpha_fraction·log2(N)`.
+    pub alpha_fraction: f64,
+    /// Monte Carlo samples of the combined uncertainty.
+    pub monte_carlo_samples: usize,
+    /// Random subsets for the baseline (paper: 2,000).
+    pub random_subsets: usize,
+    /// Seed of the Monte Carlo draw and of the random subsets.
+    pub seed: u64,
+    /// Population-sampling uncertainty: the bank holds a finite sample of the parameter space,
+    /// so the instance nearest the truth predicts differently from the truth. At each point the
+    /// prediction differences between 256 anchor instances and their nearest neighbours in
+    /// parameter space are taken at the same per-point probability as the other sources
+    /// (`φ^(1/m)`) and added as a symmetric bound to the thresholds. `false`: the paper's
+    /// Table 2 alone.
+    pub population_sampling: bool,
+    /// Maintenance rule: upper bound of the fresh-flat length L0 (mm) from which the wheelset
+    /// is to be removed from service within 24 hours.
+    pub urgent_l0_mm: f64,
+    /// Maintenance rule: upper L0 bound (mm) from which the wheel is to be inspected.
+    pub inspect_l0_mm: f64,
+    /// The uncertainty table (paper Table 2).
+    pub uncertainty: Vec<UncertaintySource>,
+}
+
+impl Default for IdentificationParams {
+    fn default() -> Self {
+        use UncertaintyGroup::{Measurement, Model};
+        use UncertaintyKind::{AbsoluteKn, Relative};
+        let src = |group, name: &str, kind, min, max| UncertaintySource {
+            group,
+            name: name.to_string(),
+            kind,
+            min,
+            max,
+        };
+        IdentificationParams {
+            phi: 0.95,
+            pips_per_series: 30,
+            pip_distance: "vertical".into(),
+            alpha_fraction: 0.01,
+            monte_carlo_samples: 20_000,
+            random_subsets: 2000,
+            seed: 1,
+            population_sampling: false,
+            urgent_l0_mm: 40.0,
+            inspect_l0_mm: 25.0,
+            uncertainty: vec![
+                src(Model, "train system", Relative, -0.15, 0.05),
+                src(Model, "finite element model", Relative, -0.08, 0.05),
+                src(Model, "mesh refinement", Relative, -0.03, 0.03),
+                src(Model, "additional", Relative, -0.01, 0.01),
+                src(Model, "track calibration", Relative, -0.05, 0.05),
+                src(Measurement, "sensor accuracy", Relative, -0.05, 0.05),
+                src(Measurement, "environment noise", AbsoluteKn, -1.0, 1.0),
+                src(Measurement, "sensor resolution", AbsoluteKn, -0.05, 0.05),
+                src(Measurement, "additional", Relative, -0.02, 0.02),
+            ],
+        }
+    }
+}
+
 /// The calibration document. Units are in the key names; see MODEL.md for the meaning.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -209,6 +317,9 @@ pub struct Calibration {
     pub integration: IntegrationParams,
     /// Population ranges for the bank.
     pub population: PopulationParams,
+    /// Identification settings and the uncertainty table (not part of a bank's identity).
+    #[serde(default)]
+    pub identification: IdentificationParams,
 }
 
 impl Default for Calibration {
@@ -283,6 +394,7 @@ impl Default for Calibration {
                 curvature_mm: [0.0, 0.5],
                 impact_position_m: [12.0, 13.0],
             },
+            identification: IdentificationParams::default(),
         }
     }
 }
@@ -373,6 +485,14 @@ impl Calibration {
     /// Parses a TOML document (no checking beyond syntax and key names).
     pub fn from_toml_str(text: &str) -> Result<Calibration, CalibrationError> {
         Ok(toml::from_str(text)?)
+    }
+
+    /// The model part of the document (everything but `[identification]`) as canonical TOML:
+    /// what determines simulated values, and so a bank's identity.
+    pub fn model_toml_string(&self) -> String {
+        let mut model = self.clone();
+        model.identification = IdentificationParams::default();
+        toml::to_string_pretty(&model).expect("calibration always serialises")
     }
 
     /// The document as TOML, with a header comment.
@@ -517,6 +637,56 @@ impl Calibration {
         range("population.curvature_mm", p.curvature_mm, -1.0)?;
         non_negative("population.curvature_mm[0]", p.curvature_mm[0])?;
         range("population.impact_position_m", p.impact_position_m, -1.0)?;
+        if p.curvature_mm[0] >= p.depth_mm[0] / 2.0 {
+            return Err(invalid(
+                "population.curvature_mm[0]",
+                p.curvature_mm[0],
+                &format!(
+                    "must be below half the smallest depth ({} mm) so that c < d/2 can hold",
+                    p.depth_mm[0] / 2.0
+                ),
+            ));
+        }
+        let id = &self.identification;
+        if !(id.phi > 0.0 && id.phi < 1.0) {
+            return Err(invalid("identification.phi", id.phi, "must lie in (0, 1)"));
+        }
+        if id.pips_per_series < 3 {
+            return Err(invalid(
+                "identification.pips_per_series",
+                id.pips_per_series,
+                "at least 3",
+            ));
+        }
+        if !["vertical", "perpendicular", "euclidean"].contains(&id.pip_distance.as_str()) {
+            return Err(invalid(
+                "identification.pip_distance",
+                format!("{:?}", id.pip_distance),
+                "one of \"vertical\", \"perpendicular\", \"euclidean\"",
+            ));
+        }
+        non_negative("identification.alpha_fraction", id.alpha_fraction)?;
+
+        if id.monte_carlo_samples < 1000 {
+            return Err(invalid(
+                "identification.monte_carlo_samples",
+                id.monte_carlo_samples,
+                "at least 1000",
+            ));
+        }
+        non_negative("identification.urgent_l0_mm", id.urgent_l0_mm)?;
+        non_negative("identification.inspect_l0_mm", id.inspect_l0_mm)?;
+        for (i, u) in id.uncertainty.iter().enumerate() {
+            finite(&format!("identification.uncertainty[{i}].min"), u.min)?;
+            finite(&format!("identification.uncertainty[{i}].max"), u.max)?;
+            if u.min > u.max {
+                return Err(invalid(
+                    &format!("identification.uncertainty[{i}]"),
+                    format!("[{}, {}]", u.min, u.max),
+                    "min exceeds max",
+                ));
+            }
+        }
 
         let checked = CheckedCalibration(self);
         // Windows: each must start at t >= 0 and end while the leading wheel is still on the rail.

@@ -40,6 +40,9 @@ pub enum SimError {
         /// Time of the first non-finite state.
         time_s: f64,
     },
+    /// A derived calibration could not be set up.
+    #[error("cannot set up the simulation: {0}")]
+    Setup(String),
     /// The flat is longer than the wheel circumference.
     #[error("flat length {length_mm} mm exceeds the wheel circumference {circumference_mm} mm")]
     FlatTooLong {

@@ -1,5 +1,6 @@
 //! Plots and tables for people.
 
+pub mod identify;
 pub mod plot;
 
 pub use plot::{draw_pad_forces, PadForcePlot, PlotError, Series};

@@ -24,7 +24,7 @@ static FONT_BYTES: &[u8] = include_bytes!(concat!(
 ));
 
 /// Font family used for every text in the plots.
-const FONT: &str = "sans-serif";
+pub(crate) const FONT: &str = "sans-serif";
 
 /// Figure size without the contact panel (pixels, also the SVG view box).
 const SIZE_SINGLE: (u32, u32) = (1400, 800);
@@ -218,7 +218,7 @@ pub fn draw_pad_forces(plot: &PadForcePlot, path: &Path) -> Result<(), PlotError
 }
 
 /// Registers the embedded font once; returns whether it is available.
-fn ensure_font() -> bool {
+pub(crate) fn ensure_font() -> bool {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     *REGISTERED.get_or_init(|| register_font(FONT, FontStyle::Normal, FONT_BYTES).is_ok())
 }

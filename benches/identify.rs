@@ -1,0 +1,83 @@
+//! Identification speed (issue #4's goals: one measurement from the 50k bank ≤ 50 ms end to
+//! end — align, PIP, read columns, entropy selection, falsify — and one falsification pass
+//! ≤ 0.5 ms). Uses the bank at `$WHEELFLAT_BENCH_BANK` (the README's figures: the default 50k
+//! bank), else builds a 2,500-instance bank under `target/bench-bank`. The measurement is a
+//! synthetic 60 mm × 0.5 mm flat on RPS1 and RPS2, the paper's two working sensors (60 PIPs).
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use std::hint::black_box;
+use std::path::{Path, PathBuf};
+use wheelflat::bank::{self, Bank, GenerateOptions, Quiet, StorageFormat};
+use wheelflat::identify::falsify::{falsify, Point};
+use wheelflat::identify::{synth, Extras, Identifier, Measurement};
+use wheelflat::model::{Calibration, Flat};
+
+fn bench_identify(c: &mut Criterion) {
+    let dir = std::env::var_os("WHEELFLAT_BENCH_BANK")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            let cal = Calibration::default().check().unwrap();
+            let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/bench-bank");
+            let opts = GenerateOptions {
+                instances: 2500,
+                seed: 0,
+                shard_size: 2500,
+                machine_shard: None,
+                format: StorageFormat::default(),
+                simulate_missing: true,
+            };
+            bank::generate(&cal, &d, &opts, &Quiet).unwrap();
+            d
+        });
+    let bank = Bank::open(&dir).unwrap();
+    let cal = bank.metadata().calibration.clone().check().unwrap();
+    let n = bank.instances();
+    let id = Identifier::new(bank, cal.identification.clone()).unwrap();
+    let flat = Flat::from_mm(60.0, 0.5, 0.1, 12.4).unwrap();
+    let syn = synth::synthesize(&cal, &flat, 1, true).unwrap();
+    let m =
+        Measurement::from_csv(Path::new("bench.csv"), &syn.csv, cal.output.sample_rate_hz).unwrap();
+    let sensors = vec!["rps1".to_string(), "rps2".to_string()];
+    let quick = Extras {
+        baselines: false,
+        curves: false,
+    };
+    c.bench_function(&format!("identify_one_measurement_{n}_instances"), |b| {
+        b.iter(|| id.identify(black_box(&m), Some(&sensors), quick).unwrap())
+    });
+
+    // One falsification pass over the whole bank with the measurement's EIP.
+    let r = id.identify(&m, Some(&sensors), quick).unwrap();
+    let axes = &id.bank().metadata().sensors;
+    let cols: Vec<usize> = r
+        .eip
+        .iter()
+        .map(|&e| {
+            let cp = &r.candidates[e];
+            let s = axes
+                .iter()
+                .position(|a| a.name == r.series[cp.series].sensor)
+                .unwrap();
+            id.bank().sample_index(s, cp.sample)
+        })
+        .collect();
+    let predictions = id.bank().read_columns(&cols).unwrap();
+    let points: Vec<Point> = r
+        .eip
+        .iter()
+        .zip(&predictions)
+        .map(|(&e, g)| Point {
+            predictions: g,
+            measured_kn: r.candidates[e].measured_kn,
+            low_kn: r.candidates[e].threshold_low_kn,
+            high_kn: r.candidates[e].threshold_high_kn,
+        })
+        .collect();
+    c.bench_function(
+        &format!("falsification_pass_{}_points_{n}_instances", points.len()),
+        |b| b.iter(|| falsify(black_box(&points))),
+    );
+}
+
+criterion_group!(benches, bench_identify);
+criterion_main!(benches);

@@ -1,0 +1,121 @@
+//! Coverage study: seeded synthetic measurements with known flats, identified against a bank;
+//! how often the truth lies inside the candidate model set's ranges (EDMF promises φ), how
+//! wide those ranges are, and the same for the baselines.
+
+use super::synth::synthesize;
+use super::{Extras, Identifier, IdentifyError, Measurement};
+use crate::bank::Population;
+use crate::model::{CheckedCalibration, Flat};
+use std::path::Path;
+
+/// One synthetic case and what each method made of it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CaseResult {
+    /// Case number.
+    pub case: usize,
+    /// True L, d, X_p, L0.
+    pub truth: [f64; 4],
+    /// EIP: CMS size, truth inside the (L, d) ranges, L0 range.
+    pub eip: (usize, bool, Option<[f64; 2]>),
+    /// Equidistant points: the same.
+    pub equidistant: (usize, bool, Option<[f64; 2]>),
+    /// Mean CMS size over the random subsets.
+    pub random_mean: f64,
+    /// Residual minimisation: its L0 (mm).
+    pub rm_l0_mm: f64,
+    /// Comparison points used.
+    pub points: usize,
+}
+
+/// Truths drawn inside the bank's population ranges, kept a little away from the edges (a
+/// truth on the boundary of the sampled box cannot be surrounded by instances).
+pub fn truths(cal: &CheckedCalibration, cases: usize, seed: u64) -> Vec<Flat> {
+    let mut inner = cal.population.clone();
+    let shrink = |r: [f64; 2]| [r[0] + 0.05 * (r[1] - r[0]), r[1] - 0.05 * (r[1] - r[0])];
+    inner.length_mm = shrink(inner.length_mm);
+    inner.depth_mm = shrink(inner.depth_mm);
+    inner.impact_position_m = shrink(inner.impact_position_m);
+    // A different, shifted low-discrepancy set: truths fall between the bank's instances.
+    let pop = Population::new(&inner, cases, seed.max(1));
+    (0..cases)
+        .map(|i| {
+            let s = pop.instance(i);
+            Flat::from_mm(s.length_mm, s.depth_mm, s.curvature_mm, s.impact_position_m)
+                .expect("population honours c < d/2")
+        })
+        .collect()
+}
+
+/// Runs the study; `cal` is the bank's calibration (with the uncertainty table to perturb by).
+pub fn run(
+    identifier: &Identifier,
+    cal: &CheckedCalibration,
+    cases: usize,
+    seed: u64,
+    baselines: bool,
+) -> Result<Vec<CaseResult>, IdentifyError> {
+    let rate = cal.output.sample_rate_hz;
+    let mut out = Vec::with_capacity(cases);
+    for (case, flat) in truths(cal, cases, seed).iter().enumerate() {
+        let syn = synthesize(cal, flat, seed.wrapping_add(case as u64), true)
+            .map_err(|e| IdentifyError::Invalid(e.to_string()))?;
+        let m = Measurement::from_csv(Path::new(&format!("case-{case}.csv")), &syn.csv, rate)?;
+        let id = identifier.identify(
+            &m,
+            None,
+            Extras {
+                baselines,
+                curves: false,
+            },
+        )?;
+        let t = &syn.truth;
+        let judge = |f: Option<&super::result::Falsification>| match f {
+            Some(f) => {
+                let inside = f.ranges.as_ref().is_some_and(|r| {
+                    r.length_mm[0] <= t.length_mm
+                        && t.length_mm <= r.length_mm[1]
+                        && r.depth_mm[0] <= t.depth_mm
+                        && t.depth_mm <= r.depth_mm[1]
+                });
+                (f.cms_count, inside, f.ranges.as_ref().map(|r| r.l0_mm))
+            }
+            None => (0, false, None),
+        };
+        out.push(CaseResult {
+            case,
+            truth: [t.length_mm, t.depth_mm, t.impact_position_m, t.l0_mm],
+            eip: judge(id.falsifications.first()),
+            equidistant: judge(
+                id.falsifications
+                    .iter()
+                    .find(|f| f.method.starts_with("equidistant")),
+            ),
+            random_mean: id.random_subsets.as_ref().map_or(f64::NAN, |r| r.mean),
+            rm_l0_mm: id.residual_minimisation.l0_mm,
+            points: id.eip.len(),
+        });
+    }
+    Ok(out)
+}
+
+/// Summary figures of a study: (coverage, median L0 width of non-empty CMS, median CMS size).
+pub fn summarise(
+    results: &[CaseResult],
+    pick: impl Fn(&CaseResult) -> (usize, bool, Option<[f64; 2]>),
+) -> (f64, f64, f64) {
+    let n = results.len().max(1) as f64;
+    let covered = results.iter().filter(|r| pick(r).1).count() as f64 / n;
+    let median = |mut v: Vec<f64>| {
+        if v.is_empty() {
+            return f64::NAN;
+        }
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let widths = results
+        .iter()
+        .filter_map(|r| pick(r).2.map(|w| w[1] - w[0]))
+        .collect();
+    let sizes = results.iter().map(|r| pick(r).0 as f64).collect();
+    (covered, median(widths), median(sizes))
+}

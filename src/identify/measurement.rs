@@ -1,0 +1,311 @@
+//! Measured rail-pad forces: reading a CSV record, checking it once (parse, don't validate),
+//! and putting it on the bank's time axis (laser trigger, or cross-correlation with the bank's
+//! flat-free prediction).
+//!
+//! File format (what `wheelflat simulate` and `wheelflat synth` write):
+//!
+//! ```text
+//! # laser_trigger_s = 0.3760        optional: when the leading wheel passed the laser (file clock)
+//! # speed_km_per_h = 50             optional: checked against the bank's speed
+//! time_s,rps1_kn,rps2_kn
+//! 0.000000,0.0173,-0.1595
+//! ```
+//!
+//! A broken sensor is simply absent, or left out with `--sensors`.
+
+use super::IdentifyError;
+use crate::bank::schema::SensorAxis;
+use std::path::{Path, PathBuf};
+
+/// A checked measurement: finite samples, strictly increasing time on a uniform grid.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Measurement {
+    /// Where it came from (for messages).
+    pub path: PathBuf,
+    /// Time of sample 0 (s, file clock).
+    pub t0_s: f64,
+    /// Sample interval (s).
+    pub dt_s: f64,
+    /// Sensor names, in file order.
+    pub sensors: Vec<String>,
+    /// Samples per sensor (kN).
+    pub values_kn: Vec<Vec<f64>>,
+    /// Laser trigger time of the leading wheel (file clock), if recorded.
+    pub laser_trigger_s: Option<f64>,
+    /// Train speed, if recorded.
+    pub speed_km_per_h: Option<f64>,
+}
+
+fn bad(path: &Path, line: usize, message: String) -> IdentifyError {
+    IdentifyError::Measurement {
+        path: path.to_path_buf(),
+        line,
+        message,
+    }
+}
+
+impl Measurement {
+    /// Reads and checks a measurement CSV. `expected_rate_hz` is the bank's sample rate.
+    pub fn from_csv(
+        path: &Path,
+        text: &str,
+        expected_rate_hz: f64,
+    ) -> Result<Measurement, IdentifyError> {
+        let mut laser = None;
+        let mut speed = None;
+        let mut header: Option<(usize, Vec<String>)> = None;
+        let mut time = Vec::new();
+        let mut columns: Vec<Vec<f64>> = Vec::new();
+        for (i, raw) in text.lines().enumerate() {
+            let line_no = i + 1;
+            let line = raw.trim();
+            if line.is_empty() {
+                continue;
+            }
+            if let Some(comment) = line.strip_prefix('#') {
+                if let Some((k, v)) = comment.split_once('=') {
+                    let (k, v) = (k.trim(), v.trim());
+                    let parse = |v: &str| {
+                        v.parse::<f64>()
+                            .ok()
+                            .filter(|x| x.is_finite())
+                            .ok_or_else(|| {
+                                bad(
+                                    path,
+                                    line_no,
+                                    format!("`{k}` = `{v}` is not a finite number"),
+                                )
+                            })
+                    };
+                    match k {
+                        "laser_trigger_s" => laser = Some(parse(v)?),
+                        "speed_km_per_h" => speed = Some(parse(v)?),
+                        _ => {}
+                    }
+                }
+                continue;
+            }
+            let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+            let Some((_, names)) = &header else {
+                if fields.first() != Some(&"time_s") {
+                    return Err(bad(
+                        path,
+                        line_no,
+                        format!(
+                            "the header must start with `time_s`, found `{}`",
+                            fields.first().unwrap_or(&"")
+                        ),
+                    ));
+                }
+                let mut names = Vec::new();
+                for f in &fields[1..] {
+                    let name = match f.strip_suffix("_kn") {
+                        Some(n) if !n.is_empty() => n,
+                        _ if f.ends_with("_n") => {
+                            return Err(bad(
+                                path,
+                                line_no,
+                                format!("column `{f}` is in N: wheelflat reads forces in kN, in columns named `<sensor>_kn`"),
+                            ))
+                        }
+                        _ => {
+                            return Err(bad(
+                                path,
+                                line_no,
+                                format!("column `{f}`: force columns are named `<sensor>_kn` (force in kN)"),
+                            ))
+                        }
+                    };
+                    if names.iter().any(|n: &String| n == name) {
+                        return Err(bad(path, line_no, format!("sensor `{name}` appears twice")));
+                    }
+                    names.push(name.to_string());
+                }
+                if names.is_empty() {
+                    return Err(bad(path, line_no, "no sensor columns".into()));
+                }
+                columns = vec![Vec::new(); names.len()];
+                header = Some((line_no, names));
+                continue;
+            };
+            if fields.len() != names.len() + 1 {
+                return Err(bad(
+                    path,
+                    line_no,
+                    format!(
+                        "{} fields, the header has {}",
+                        fields.len(),
+                        names.len() + 1
+                    ),
+                ));
+            }
+            let value = |j: usize| -> Result<f64, IdentifyError> {
+                let col = if j == 0 {
+                    "time_s".to_string()
+                } else {
+                    format!("{}_kn", names[j - 1])
+                };
+                fields[j]
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite())
+                    .ok_or_else(|| {
+                        bad(
+                            path,
+                            line_no,
+                            format!("`{col}` = `{}` is not a finite number", fields[j]),
+                        )
+                    })
+            };
+            let t = value(0)?;
+            if let Some(&prev) = time.last() {
+                if t <= prev {
+                    return Err(bad(
+                        path,
+                        line_no,
+                        format!("time {t} s does not increase (previous {prev} s)"),
+                    ));
+                }
+            }
+            time.push(t);
+            for (j, col) in columns.iter_mut().enumerate() {
+                col.push(value(j + 1)?);
+            }
+            // Sample-rate check as we go, so the message names the line.
+            if time.len() >= 2 {
+                let dt = time[time.len() - 1] - time[time.len() - 2];
+                let expected = 1.0 / expected_rate_hz;
+                if (dt - expected).abs() > 0.01 * expected {
+                    return Err(bad(
+                        path,
+                        line_no,
+                        format!(
+                            "time step {:.6} s ({:.1} Hz) does not match the bank's sample rate {expected_rate_hz} Hz",
+                            dt,
+                            1.0 / dt
+                        ),
+                    ));
+                }
+            }
+        }
+        let Some((header_line, sensors)) = header else {
+            return Err(bad(path, 1, "no header line `time_s,<sensor>_kn,…`".into()));
+        };
+        if time.len() < 2 {
+            return Err(bad(
+                path,
+                header_line,
+                format!("only {} data rows", time.len()),
+            ));
+        }
+        for (name, col) in sensors.iter().zip(&columns) {
+            let max = col.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            if max > 2000.0 {
+                return Err(bad(
+                    path,
+                    header_line,
+                    format!("`{name}_kn` reaches {max:.0}: that looks like newtons, not kN"),
+                ));
+            }
+        }
+        let n = time.len();
+        Ok(Measurement {
+            path: path.to_path_buf(),
+            t0_s: time[0],
+            dt_s: (time[n - 1] - time[0]) / (n - 1) as f64,
+            sensors,
+            values_kn: columns,
+            laser_trigger_s: laser,
+            speed_km_per_h: speed,
+        })
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.values_kn.first().map_or(0, Vec::len)
+    }
+
+    /// True when there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Value of sensor `s` at file time `t` by linear interpolation (`None` outside the record).
+    pub fn at(&self, s: usize, t: f64) -> Option<f64> {
+        let x = (t - self.t0_s) / self.dt_s;
+        let n = self.len();
+        if x < -1e-9 || x > (n - 1) as f64 + 1e-9 {
+            return None;
+        }
+        let x = x.clamp(0.0, (n - 1) as f64);
+        let i = (x.floor() as usize).min(n - 2);
+        let f = x - i as f64;
+        let v = &self.values_kn[s];
+        Some(v[i] * (1.0 - f) + v[i + 1] * f)
+    }
+
+    /// The series of sensor `s` on a bank window: bank time = file time + `shift_s`.
+    pub fn on_window(
+        &self,
+        s: usize,
+        axis: &SensorAxis,
+        shift_s: f64,
+    ) -> Result<Vec<f64>, IdentifyError> {
+        (0..axis.samples)
+            .map(|k| {
+                let t_bank = (axis.first_sample + k) as f64 / axis.sample_rate_hz;
+                self.at(s, t_bank - shift_s)
+                    .ok_or_else(|| IdentifyError::TooShort {
+                        path: self.path.clone(),
+                        sensor: self.sensors[s].clone(),
+                        needed: [
+                            axis.t0_s - shift_s,
+                            axis.t0_s + (axis.samples - 1) as f64 / axis.sample_rate_hz - shift_s,
+                        ],
+                        recorded: [self.t0_s, self.t0_s + (self.len() - 1) as f64 * self.dt_s],
+                    })
+            })
+            .collect()
+    }
+}
+
+/// Best shift (bank time = file time + shift) by normalised cross-correlation of the measured
+/// series with the bank's flat-free prediction, over whole-sample shifts that keep every window
+/// inside the record. `pairs` are (measurement sensor index, bank axis, flat-free template).
+pub fn cross_correlate(
+    m: &Measurement,
+    pairs: &[(usize, &SensorAxis, &[f32])],
+) -> Option<(f64, f64)> {
+    let rate = 1.0 / m.dt_s;
+    // File sample k sits at bank time t0 + k·dt + shift; choose shifts that put file samples
+    // exactly on bank samples: shift = (g − k0)·dt − t0 for integer g − k0.
+    let n = m.len() as i64;
+    let mut best: Option<(f64, f64)> = None;
+    let lo = pairs.iter().map(|(_, a, _)| a.first_sample as i64).min()?;
+    let hi = pairs
+        .iter()
+        .map(|(_, a, _)| (a.first_sample + a.samples) as i64)
+        .max()?;
+    // offset o: bank sample G corresponds to file sample G − o.
+    for o in (hi - n)..=lo {
+        let mut num = 0.0;
+        let mut yy = 0.0;
+        let mut gg = 0.0;
+        for (s, axis, template) in pairs {
+            let y = &m.values_kn[*s];
+            for (k, &g) in template.iter().enumerate() {
+                let idx = axis.first_sample as i64 + k as i64 - o;
+                let v = y[idx as usize];
+                num += v * g as f64;
+                yy += v * v;
+                gg += g as f64 * g as f64;
+            }
+        }
+        let c = num / (yy * gg).sqrt().max(1e-300);
+        if best.is_none_or(|(_, b)| c > b) {
+            let shift = o as f64 / rate - m.t0_s;
+            best = Some((shift, c));
+        }
+    }
+    best
+}

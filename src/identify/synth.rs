@@ -1,0 +1,147 @@
+//! Field-like synthetic measurements from a chosen true flat: simulated, then perturbed with
+//! errors drawn inside the calibration's uncertainty table, seeded.
+//!
+//! Per series (sensor) the model error is systematic: one draw of every model source, and the
+//! "true" force is `g·(1 − E_model)` (the model's prediction `g` errs by `E_model` of the
+//! force). The measurement then adds a per-sensor gain error (one draw of every relative
+//! measurement source), independent noise per sample (the absolute sources other than the
+//! resolution), and quantisation to the sensor resolution (a resolution of ±r is a step of 2r).
+
+use super::uncertainty::uniform;
+use crate::model::calibration::{UncertaintyGroup, UncertaintyKind};
+use crate::model::{CheckedCalibration, Flat, Record, SimError, Simulator};
+use serde::{Deserialize, Serialize};
+
+/// Extra samples recorded before the first and after the last sensor window.
+pub const MARGIN_SAMPLES: usize = 100;
+
+/// What `synth` hid in a measurement: the truth to compare an identification with.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Truth {
+    /// Flat length L (mm).
+    pub length_mm: f64,
+    /// Depth d (mm).
+    pub depth_mm: f64,
+    /// Curvature c (mm).
+    pub curvature_mm: f64,
+    /// Impact position X_p (m).
+    pub impact_position_m: f64,
+    /// L0 = sqrt(8·d·R_w) (mm).
+    pub l0_mm: f64,
+    /// Seed of the perturbation.
+    pub seed: u64,
+    /// Per sensor: the systematic model error E_model drawn (fraction).
+    pub model_error: Vec<(String, f64)>,
+    /// Per sensor: the gain error drawn (fraction).
+    pub gain_error: Vec<(String, f64)>,
+    /// Bank time = file time + this (s).
+    pub shift_s: f64,
+    /// Laser trigger time written to the file (file clock), if any.
+    pub laser_trigger_s: Option<f64>,
+}
+
+/// A synthetic measurement: CSV text and its truth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Synthetic {
+    /// The CSV (same format as `simulate`, with `#` metadata lines).
+    pub csv: String,
+    /// The truth.
+    pub truth: Truth,
+}
+
+/// Simulates `flat` with `cal` and perturbs it; `with_trigger` writes the laser trigger time.
+pub fn synthesize(
+    cal: &CheckedCalibration,
+    flat: &Flat,
+    seed: u64,
+    with_trigger: bool,
+) -> Result<Synthetic, SimError> {
+    // Record a margin around the windows: simulate with longer windows (the run is causal, so
+    // the samples inside the bank's windows are unchanged).
+    let mut wide = cal.document().clone();
+    wide.output.window_samples += 2 * MARGIN_SAMPLES;
+    let wide = wide.check().map_err(|e| SimError::Setup(e.to_string()))?;
+    let sim = Simulator::new(&wide)?;
+    let resp = sim.run(Some(flat), Record::default())?;
+    let id = &cal.identification;
+    let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1CE;
+    let mut draw = |group: UncertaintyGroup, kind: UncertaintyKind, skip_resolution: bool| -> f64 {
+        id.uncertainty
+            .iter()
+            .filter(|u| {
+                u.group == group
+                    && u.kind == kind
+                    && !(skip_resolution && u.name.contains("resolution"))
+            })
+            .map(|u| u.min + (u.max - u.min) * uniform(&mut state))
+            .sum()
+    };
+    let names: Vec<String> = cal.sensors.pad.iter().map(|p| p.name.clone()).collect();
+    let model_error: Vec<f64> = names
+        .iter()
+        .map(|_| draw(UncertaintyGroup::Model, UncertaintyKind::Relative, false))
+        .collect();
+    let gain_error: Vec<f64> = names
+        .iter()
+        .map(|_| {
+            draw(
+                UncertaintyGroup::Measurement,
+                UncertaintyKind::Relative,
+                false,
+            )
+        })
+        .collect();
+    let resolution_kn = id
+        .uncertainty
+        .iter()
+        .filter(|u| u.group == UncertaintyGroup::Measurement && u.name.contains("resolution"))
+        .map(|u| u.max - u.min)
+        .sum::<f64>();
+    let rate = cal.output.sample_rate_hz;
+    let mut csv = String::from("# wheelflat synthetic measurement (see the truth JSON)\n");
+    let shift_s = resp.first_sample as f64 / rate;
+    let laser = with_trigger.then(|| {
+        (cal.sensors.laser_trigger_m - cal.run.leading_wheel_start_m) / cal.speed_m_per_s()
+            - shift_s
+    });
+    if let Some(t) = laser {
+        csv += &format!("# laser_trigger_s = {t:.6}\n");
+    }
+    csv += &format!("# speed_km_per_h = {}\n", cal.run.speed_km_per_h);
+    csv += "time_s";
+    for n in &names {
+        csv += &format!(",{n}_kn");
+    }
+    csv.push('\n');
+    for j in 0..resp.len() {
+        csv += &format!("{:.6}", j as f64 / rate);
+        for (s, series) in resp.pad_force_n.iter().enumerate() {
+            let g = series[j] / 1e3;
+            let truth = g * (1.0 - model_error[s]);
+            let noise = draw(
+                UncertaintyGroup::Measurement,
+                UncertaintyKind::AbsoluteKn,
+                true,
+            );
+            let mut y = truth * (1.0 + gain_error[s]) + noise;
+            if resolution_kn > 0.0 {
+                y = (y / resolution_kn).round() * resolution_kn;
+            }
+            csv += &format!(",{y:.4}");
+        }
+        csv.push('\n');
+    }
+    let truth = Truth {
+        length_mm: flat.length_m() * 1e3,
+        depth_mm: flat.depth_m() * 1e3,
+        curvature_mm: flat.curvature_m() * 1e3,
+        impact_position_m: flat.impact_position_m(),
+        l0_mm: flat.fresh_length_m(cal.vehicle.wheel_radius_m) * 1e3,
+        seed,
+        model_error: names.iter().cloned().zip(model_error).collect(),
+        gain_error: names.iter().cloned().zip(gain_error).collect(),
+        shift_s,
+        laser_trigger_s: laser,
+    };
+    Ok(Synthetic { csv, truth })
+}

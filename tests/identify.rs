@@ -1,0 +1,189 @@
+//! Identification on a small bank: measurement checks, alignment, the EDMF promise on seeded
+//! synthetic cases (coverage), EIP against random subsets.
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+use wheelflat::bank::{self, Bank, GenerateOptions, Quiet, StorageFormat};
+use wheelflat::identify::{coverage, synth, Extras, Identifier, IdentifyError, Measurement};
+use wheelflat::model::{Calibration, CheckedCalibration, Flat};
+
+/// A CI-sized bank: narrower ranges so that 2,000 instances cover them about as densely as
+/// 50,000 cover the paper's ranges, and 600-sample windows around RPS1 and RPS2's strikes.
+fn small_calibration() -> CheckedCalibration {
+    let mut c = Calibration::default();
+    c.output.window_samples = 600;
+    c.population.length_mm = [40.0, 80.0];
+    c.population.depth_mm = [0.3, 0.6];
+    c.population.curvature_mm = [0.0, 0.1];
+    c.population.impact_position_m = [12.3, 12.5];
+    c.check().unwrap()
+}
+
+fn small_bank() -> &'static (PathBuf, CheckedCalibration) {
+    static BANK: OnceLock<(PathBuf, CheckedCalibration)> = OnceLock::new();
+    BANK.get_or_init(|| {
+        let cal = small_calibration();
+        let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("identify-bank");
+        let opts = GenerateOptions {
+            instances: 2000,
+            seed: 0,
+            shard_size: 1000,
+            machine_shard: None,
+            format: StorageFormat::default(),
+            simulate_missing: true,
+        };
+        bank::generate(&cal, &dir, &opts, &Quiet).unwrap();
+        (dir, cal)
+    })
+}
+
+fn identifier() -> Identifier {
+    let (dir, cal) = small_bank();
+    Identifier::new(Bank::open(dir).unwrap(), cal.identification.clone()).unwrap()
+}
+
+fn parse(text: &str) -> Result<Measurement, IdentifyError> {
+    Measurement::from_csv(Path::new("field.csv"), text, 2500.0)
+}
+
+#[test]
+fn bad_measurements_are_named_by_file_line_and_value() {
+    let cases = [
+        ("time_s,rps1_kn\n0.0,1.0\n0.0004,NaN\n", "field.csv, line 3: `rps1_kn` = `NaN` is not a finite number"),
+        ("time_s,rps1_kn\n0.0,1.0\n0.0004,2.0\n0.0004,3.0\n", "line 4: time 0.0004 s does not increase"),
+        ("time_s,rps1_kn\n0.0,1.0\n0.001,2.0\n", "line 3: time step 0.001000 s (1000.0 Hz) does not match the bank's sample rate 2500 Hz"),
+        ("time_s,rps1_n\n0.0,1.0\n", "line 1: column `rps1_n` is in N"),
+        ("time_s,rps1_kn\n0.0,1.0\n0.0004,20000.0\n", "reaches 20000: that looks like newtons"),
+        ("time_s,rps1_kn\n0.0,1.0\n", "only 1 data rows"),
+        ("t,rps1_kn\n0.0,1.0\n", "line 1: the header must start with `time_s`"),
+        ("time_s,rps1_kn,rps2_kn\n0.0,1.0\n", "line 2: 2 fields, the header has 3"),
+    ];
+    for (text, expected) in cases {
+        let e = parse(text).unwrap_err().to_string();
+        assert!(e.contains(expected), "{e}\n  expected: {expected}");
+    }
+}
+
+#[test]
+fn unknown_or_missing_sensors_and_short_records_are_errors() {
+    let id = identifier();
+    let (_, cal) = small_bank();
+    let flat = Flat::from_mm(60.0, 0.45, 0.05, 12.4).unwrap();
+    let syn = synth::synthesize(cal, &flat, 3, true).unwrap();
+    let renamed = syn.csv.replace("rps3_kn", "rps9_kn");
+    let e = id
+        .identify(
+            &parse(&renamed).unwrap(),
+            None,
+            Extras {
+                baselines: false,
+                curves: false,
+            },
+        )
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("sensor `rps9` is not in the bank"), "{e}");
+    let m = parse(&syn.csv).unwrap();
+    let e = id
+        .identify(
+            &m,
+            Some(&["rps7".to_string()]),
+            Extras {
+                baselines: false,
+                curves: false,
+            },
+        )
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("`rps7` was asked for"), "{e}");
+    // Cut the record short: the last windows are no longer covered.
+    let short: String = syn
+        .csv
+        .lines()
+        .take(900)
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let e = id
+        .identify(
+            &parse(&short).unwrap(),
+            None,
+            Extras {
+                baselines: false,
+                curves: false,
+            },
+        )
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("needs samples from"), "{e}");
+}
+
+#[test]
+fn cross_correlation_finds_the_same_shift_as_the_laser_trigger() {
+    let id = identifier();
+    let (_, cal) = small_bank();
+    let flat = Flat::from_mm(55.0, 0.4, 0.05, 12.42).unwrap();
+    let with = synth::synthesize(cal, &flat, 5, true).unwrap();
+    let without = synth::synthesize(cal, &flat, 5, false).unwrap();
+    let a = id
+        .identify(
+            &parse(&with.csv).unwrap(),
+            None,
+            Extras {
+                baselines: false,
+                curves: false,
+            },
+        )
+        .unwrap();
+    let b = id
+        .identify(
+            &parse(&without.csv).unwrap(),
+            None,
+            Extras {
+                baselines: false,
+                curves: false,
+            },
+        )
+        .unwrap();
+    assert_eq!(a.alignment.method, "laser trigger");
+    assert_eq!(b.alignment.method, "cross-correlation");
+    // The trigger gives the shift exactly; cross-correlation with the flat-free template to
+    // within one sample (0.4 ms): the flat's impacts pull the correlation peak by a sample.
+    assert!((a.alignment.shift_s - with.truth.shift_s).abs() < 1e-6);
+    assert!(
+        (b.alignment.shift_s - with.truth.shift_s).abs() < 0.41e-3,
+        "{} vs {}",
+        b.alignment.shift_s,
+        with.truth.shift_s
+    );
+    assert!(b.alignment.correlation.unwrap() > 0.95);
+}
+
+/// Issue #4's acceptance test. It FAILS today (measured: EIP coverage 0.20, equidistant 1.00,
+/// see the README, "Identification (issue #4)"): the entropy-selected points sit on impact
+/// transients where the measured force is small, so the thresholds (relative to the measured
+/// force) are narrow while the bank's instances, a finite sample of the parameter space,
+/// differ from the truth there by more. Kept, ignored, as the target to meet.
+#[test]
+#[ignore = "known failure, issue #4 open: EIP coverage 0.20 < 0.95 on the CI-sized bank"]
+fn truth_is_covered_in_at_least_95_percent_of_seeded_cases() {
+    let id = identifier();
+    let (_, cal) = small_bank();
+    let results = coverage::run(&id, cal, 50, 11, true).unwrap();
+    let (cov, width, size) = coverage::summarise(&results, |r| r.eip);
+    let (eq_cov, eq_width, eq_size) = coverage::summarise(&results, |r| r.equidistant);
+    let random_mean: f64 =
+        results.iter().map(|r| r.random_mean).sum::<f64>() / results.len() as f64;
+    println!("EIP: coverage {cov:.2}, median L0 width {width:.1} mm, median CMS {size}");
+    println!(
+        "equidistant: coverage {eq_cov:.2}, median L0 width {eq_width:.1} mm, median CMS {eq_size}"
+    );
+    println!("random subsets: mean CMS {random_mean:.1}");
+    // EDMF's promise at φ = 0.95 (issue #4).
+    assert!(cov >= 0.95, "coverage {cov}");
+    // The entropy-selected points keep fewer instances than random subsets of the same size.
+    let eip_mean = results.iter().map(|r| r.eip.0 as f64).sum::<f64>() / results.len() as f64;
+    assert!(
+        eip_mean < random_mean,
+        "EIP mean CMS {eip_mean} vs random {random_mean}"
+    );
+}
