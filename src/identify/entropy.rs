@@ -13,27 +13,47 @@
 //! nothing and are skipped. With `H = log2 N − (1/N)·Σ_cells c·log2 c`, the gain of a candidate
 //! is `(1/N)·Σ_groups (n_g·log2 n_g − Σ_b c_gb·log2 c_gb)`.
 
-use rayon::prelude::*;
-
-/// The predictions at one point, as bin numbers.
-#[derive(Debug, Clone, PartialEq)]
+/// The predictions at one point, as bin numbers, with their entropy.
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Binned {
     /// Bin of every instance.
     pub bins: Vec<u32>,
     /// Number of bins.
     pub nbins: usize,
+    /// Shannon entropy of the bins (bits).
+    pub entropy_bits: f64,
 }
 
 /// Bins `values` with width `width` starting at their minimum.
 pub fn bin_predictions(values: &[f32], width: f64) -> Binned {
+    let mut b = Binned::default();
+    bin_predictions_into(values, width, &mut b);
+    b
+}
+
+/// [`bin_predictions`] into a reused buffer (the hot path allocates nothing per call).
+pub fn bin_predictions_into(values: &[f32], width: f64, out: &mut Binned) {
     let lo = values.iter().copied().fold(f32::MAX, f32::min) as f64;
-    let w = width.max(1e-12);
-    let bins: Vec<u32> = values
+    let inv = 1.0 / width.max(1e-12);
+    out.bins.clear();
+    out.bins
+        .extend(values.iter().map(|&v| ((v as f64 - lo) * inv) as u32));
+    out.nbins = out.bins.iter().copied().max().map_or(0, |m| m as usize + 1);
+    let mut counts = vec![0u32; out.nbins];
+    for &x in &out.bins {
+        counts[x as usize] += 1;
+    }
+    let n = out.bins.len();
+    let s: f64 = counts
         .iter()
-        .map(|&v| ((v as f64 - lo) / w).floor() as u32)
-        .collect();
-    let nbins = bins.iter().copied().max().map_or(0, |m| m as usize + 1);
-    Binned { bins, nbins }
+        .filter(|&&c| c > 0)
+        .map(|&c| c as f64 * (c as f64).log2())
+        .sum();
+    out.entropy_bits = if n == 0 {
+        0.0
+    } else {
+        (n as f64).log2() - s / n as f64
+    };
 }
 
 /// `c·log2(c)` for c = 0…n.
@@ -49,7 +69,7 @@ fn clog_table(n: usize) -> Vec<f64> {
         .collect()
 }
 
-/// Shannon entropy (bits) of one binned point.
+/// Shannon entropy (bits) of one binned point, counted afresh (reference for the stored value).
 pub fn entropy(b: &Binned) -> f64 {
     let n = b.bins.len();
     if n == 0 {
@@ -77,8 +97,14 @@ pub struct Selection {
 }
 
 /// Greedy joint-entropy selection among `allowed` candidates: stop when the best gain is below
-/// `alpha_bits`, when nothing can be gained, or after `max_points`. Candidates are evaluated in
-/// parallel on the current rayon pool; ties go to the lowest candidate index (deterministic).
+/// `alpha_bits`, when nothing can be gained, or after `max_points`. Ties go to the earlier
+/// candidate in `allowed` (deterministic).
+///
+/// Joint entropy is submodular (a point never gains more after others have been chosen), so
+/// the selection is *lazy* (Minoux): every candidate keeps its last gain as an upper bound and
+/// only the candidate with the highest bound is re-evaluated, until one is best with a fresh
+/// gain — the same choice as re-evaluating all, at a fraction of the work. Only the *active*
+/// instances (those still sharing a group with another) are visited.
 pub fn greedy_joint_entropy(
     candidates: &[Binned],
     allowed: &[usize],
@@ -90,47 +116,51 @@ pub fn greedy_joint_entropy(
         order: Vec::new(),
         joint_bits: Vec::new(),
     };
-    if n == 0 {
+    if n < 2 || allowed.is_empty() {
         return sel;
     }
     let clog = clog_table(n);
     let max_bins = candidates.iter().map(|c| c.nbins).max().unwrap_or(1).max(1);
-    let mut perm: Vec<u32> = (0..n as u32).collect();
-    // Non-singleton groups as (start, len) runs of `perm`.
+    // Active instances in group order; groups are (start, len) runs of it, all len ≥ 2.
+    let mut active: Vec<u32> = (0..n as u32).collect();
     let mut groups: Vec<(usize, usize)> = vec![(0, n)];
-    let mut joint = 0.0;
+    let gain_of = |bins: &[u32],
+                   active: &[u32],
+                   groups: &[(usize, usize)],
+                   counts: &mut Vec<u32>,
+                   touched: &mut Vec<u32>| {
+        let mut gain = 0.0;
+        for &(start, len) in groups {
+            for &k in &active[start..start + len] {
+                let b = bins[k as usize];
+                if counts[b as usize] == 0 {
+                    touched.push(b);
+                }
+                counts[b as usize] += 1;
+            }
+            let mut cells = 0.0;
+            for &b in touched.iter() {
+                cells += clog[counts[b as usize] as usize];
+                counts[b as usize] = 0;
+            }
+            touched.clear();
+            gain += clog[len] - cells;
+        }
+        gain / n as f64
+    };
     let mut remaining: Vec<usize> = allowed.to_vec();
-    let mut scratch_perm = vec![0u32; n];
+    // First round: the gains are the single-point entropies, computed while binning.
+    let mut bounds: Vec<f64> = remaining
+        .iter()
+        .map(|&c| candidates[c].entropy_bits)
+        .collect();
+    let mut fresh = vec![true; remaining.len()];
+    let mut counts = vec![0u32; max_bins];
+    let mut touched = Vec::with_capacity(64);
+    let mut joint = 0.0;
     while !remaining.is_empty() && sel.order.len() < max_points && !groups.is_empty() {
-        let gains: Vec<f64> = remaining
-            .par_iter()
-            .map_init(
-                || (vec![0u32; max_bins], Vec::<u32>::with_capacity(64)),
-                |(counts, touched), &c| {
-                    let bins = &candidates[c].bins;
-                    let mut gain = 0.0;
-                    for &(start, len) in &groups {
-                        for &k in &perm[start..start + len] {
-                            let b = bins[k as usize];
-                            if counts[b as usize] == 0 {
-                                touched.push(b);
-                            }
-                            counts[b as usize] += 1;
-                        }
-                        let mut cells = 0.0;
-                        for &b in touched.iter() {
-                            cells += clog[counts[b as usize] as usize];
-                            counts[b as usize] = 0;
-                        }
-                        touched.clear();
-                        gain += clog[len] - cells;
-                    }
-                    gain / n as f64
-                },
-            )
-            .collect();
-        let (best_pos, best_gain) =
-            gains
+        let best = loop {
+            let pos = bounds
                 .iter()
                 .enumerate()
                 .fold((0, f64::MIN), |(bp, bg), (p, &g)| {
@@ -139,48 +169,70 @@ pub fn greedy_joint_entropy(
                     } else {
                         (bp, bg)
                     }
-                });
+                })
+                .0;
+            if fresh[pos] {
+                break pos;
+            }
+            bounds[pos] = gain_of(
+                &candidates[remaining[pos]].bins,
+                &active,
+                &groups,
+                &mut counts,
+                &mut touched,
+            );
+            fresh[pos] = true;
+        };
+        let best_gain = bounds[best];
         if best_gain < alpha_bits || best_gain <= 1e-12 {
             break;
         }
-        let chosen = remaining.remove(best_pos);
+        let chosen = remaining.remove(best);
+        bounds.remove(best);
+        fresh.remove(best);
         joint += best_gain;
         sel.order.push(chosen);
         sel.joint_bits.push(joint);
-        // Refine every group by the chosen point's bins (counting sort within the run).
+
+        // Refine every group by the chosen bins (counting sort within the run); keep only the
+        // sub-groups of two or more.
         let bins = &candidates[chosen].bins;
-        let mut next = Vec::with_capacity(groups.len() * 2);
-        let mut counts = vec![0usize; candidates[chosen].nbins + 1];
+        let mut next_active: Vec<u32> = Vec::with_capacity(active.len());
+        let mut next_groups: Vec<(usize, usize)> = Vec::new();
+        let mut offsets = vec![0usize; candidates[chosen].nbins + 1];
+        let mut sorted: Vec<u32> = Vec::new();
         for &(start, len) in &groups {
-            let run = &perm[start..start + len];
+            let run = &active[start..start + len];
             for &k in run {
-                counts[bins[k as usize] as usize + 1] += 1;
+                offsets[bins[k as usize] as usize + 1] += 1;
             }
-            // Prefix sums give each bin's offset; remember the sizes first.
-            let mut offsets = Vec::new();
+            let sizes = offsets.clone();
             let mut acc = 0;
-            for c in counts.iter_mut() {
-                let size = *c;
-                *c = acc;
+            for o in offsets.iter_mut() {
+                let size = *o;
+                *o = acc;
                 acc += size;
-                offsets.push(size);
             }
+            sorted.clear();
+            sorted.resize(len, 0);
             for &k in run {
-                let b = bins[k as usize] as usize + 1;
-                scratch_perm[start + counts[b]] = k;
-                counts[b] += 1;
+                let slot = &mut offsets[bins[k as usize] as usize + 1];
+                sorted[*slot] = k;
+                *slot += 1;
             }
-            let mut s = start;
-            for &size in &offsets[1..] {
+            let mut at = 0;
+            for &size in &sizes[1..] {
                 if size > 1 {
-                    next.push((s, size));
+                    next_groups.push((next_active.len(), size));
+                    next_active.extend_from_slice(&sorted[at..at + size]);
                 }
-                s += size;
+                at += size;
             }
-            perm[start..start + len].copy_from_slice(&scratch_perm[start..start + len]);
-            counts.iter_mut().for_each(|c| *c = 0);
+            offsets.iter_mut().for_each(|o| *o = 0);
         }
-        groups = next;
+        active = next_active;
+        groups = next_groups;
+        fresh.iter_mut().for_each(|f| *f = false);
     }
     sel
 }
@@ -191,7 +243,13 @@ mod tests {
 
     fn binned(bins: Vec<u32>) -> Binned {
         let nbins = bins.iter().copied().max().unwrap() as usize + 1;
-        Binned { bins, nbins }
+        let mut b = Binned {
+            bins,
+            nbins,
+            entropy_bits: 0.0,
+        };
+        b.entropy_bits = entropy(&b);
+        b
     }
 
     #[test]
@@ -222,6 +280,42 @@ mod tests {
         }
     }
 
+    /// Joint entropy of a set of points by hashing the bin tuples from scratch.
+    fn brute_joint(cands: &[Binned], set: &[usize]) -> f64 {
+        let n = cands[0].bins.len();
+        let mut cells = std::collections::HashMap::<Vec<u32>, usize>::new();
+        for k in 0..n {
+            *cells
+                .entry(set.iter().map(|&c| cands[c].bins[k]).collect())
+                .or_default() += 1;
+        }
+        let s: f64 = cells.values().map(|&c| c as f64 * (c as f64).log2()).sum();
+        (n as f64).log2() - s / n as f64
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(24))]
+        #[test]
+        fn group_refinement_equals_hashing_tuples_from_scratch(seed in 0u64..1000, nbins in 2u32..9) {
+            let mut state = seed;
+            let cands: Vec<Binned> = (0..7)
+                .map(|_| binned((0..300).map(|_| (crate::identify::uncertainty::uniform(&mut state) * nbins as f64) as u32).collect()))
+                .collect();
+            let all: Vec<usize> = (0..7).collect();
+            let s = greedy_joint_entropy(&cands, &all, 0.0, 7);
+            for (j, &h) in s.joint_bits.iter().enumerate() {
+                let exact = brute_joint(&cands, &s.order[..=j]);
+                proptest::prop_assert!((h - exact).abs() < 1e-9, "step {}: {} vs {}", j, h, exact);
+                // Greedy: no other remaining candidate would have done better at this step.
+                for c in all.iter().filter(|c| !s.order[..=j].contains(c)) {
+                    let mut alt = s.order[..j].to_vec();
+                    alt.push(*c);
+                    proptest::prop_assert!(brute_joint(&cands, &alt) <= exact + 1e-9);
+                }
+            }
+        }
+    }
+
     #[test]
     fn alpha_stops_the_selection() {
         let n = 64u32;
@@ -236,5 +330,8 @@ mod tests {
         let b = bin_predictions(&[1.0, 1.9, 2.1, 5.0], 1.0);
         assert_eq!(b.bins, vec![0, 0, 1, 4]);
         assert_eq!(b.nbins, 5);
+        assert!(
+            (b.entropy_bits - entropy(&b)).abs() < 1e-12 && (b.entropy_bits - 1.5).abs() < 1e-12
+        );
     }
 }

@@ -19,7 +19,7 @@ pub use result::Identification;
 
 use crate::bank::{Bank, BankError, Parameters};
 use crate::model::calibration::IdentificationParams;
-use entropy::{bin_predictions, entropy, greedy_joint_entropy, Binned};
+use entropy::{bin_predictions_into, greedy_joint_entropy, Binned};
 use falsify::{falsify, random_subset_counts, residual_minimisation, Point};
 use pip::{perceptually_important_points, PipDistance};
 use result::{
@@ -91,6 +91,7 @@ pub struct Identifier {
     settings: IdentificationParams,
     uncertainty: CombinedUncertainty,
     buffers: Mutex<Vec<Vec<f32>>>,
+    bin_buffers: Mutex<Vec<Binned>>,
 }
 
 fn ranges_of(
@@ -137,6 +138,7 @@ impl Identifier {
             settings,
             uncertainty,
             buffers: Mutex::new(Vec::new()),
+            bin_buffers: Mutex::new(Vec::new()),
         })
     }
 
@@ -320,18 +322,20 @@ impl Identifier {
             let d = self.sampling_bound(&predictions[i], p);
             (lo - d, hi + d)
         };
-        let binned_for = |p: f64| -> Vec<Binned> {
-            (0..measured.len())
-                .map(|i| {
-                    let (lo, hi) = bounds(i, p);
-                    bin_predictions(&predictions[i], hi - lo)
-                })
-                .collect()
+        let mut binned = self.bin_buffers.lock().unwrap_or_else(|e| e.into_inner());
+        binned.resize_with(measured.len(), Binned::default);
+        let bin_all = |p: f64, binned: &mut Vec<Binned>| {
+            use rayon::prelude::*;
+            binned.par_iter_mut().enumerate().for_each(|(i, b)| {
+                let (lo, hi) = bounds(i, p);
+                bin_predictions_into(&predictions[i], hi - lo, b);
+            });
         };
-        let first = greedy_joint_entropy(&binned_for(s.phi), &all, alpha, cands.len());
+        bin_all(s.phi, &mut binned);
+        let first = greedy_joint_entropy(&binned, &all, alpha, cands.len());
         let m1 = first.order.len().max(1);
         let p = s.phi.powf(1.0 / m1 as f64);
-        let binned = binned_for(p);
+        bin_all(p, &mut binned);
         let selection = greedy_joint_entropy(&binned, &all, alpha, m1);
         let m_final = selection.order.len().max(1);
         let p_final = s.phi.powf(1.0 / m_final as f64);
@@ -361,7 +365,7 @@ impl Identifier {
                 time_s: series[si].t0_s + k as f64 / series[si].sample_rate_hz,
                 measured_kn: measured[i],
                 pip_order: order,
-                entropy_bits: entropy(&binned[i]),
+                entropy_bits: binned[i].entropy_bits,
                 threshold_low_kn: thresholds[i].0,
                 threshold_high_kn: thresholds[i].1,
                 sampling_kn: sampling[i],
