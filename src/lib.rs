@@ -12,6 +12,7 @@
 //! The binary `wheelflat` drives it all; [`cli`] holds its commands and [`report`] its plots.
 #![deny(clippy::float_cmp)]
 
+pub mod atomic;
 pub mod bank;
 pub mod cli;
 pub mod identify;

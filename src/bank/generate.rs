@@ -108,19 +108,9 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> BankError + '_ {
     }
 }
 
-/// Writes bytes through a temporary file and a rename (atomic on one filesystem).
+/// Writes bytes atomically ([`crate::atomic::write_atomically`]).
 pub(crate) fn write_file_atomically(path: &Path, bytes: &[u8]) -> Result<(), BankError> {
-    let tmp = path.with_file_name(format!(
-        ".{}.tmp",
-        path.file_name()
-            .map(|n| n.to_string_lossy())
-            .unwrap_or_default()
-    ));
-    std::fs::write(&tmp, bytes).map_err(io_err(&tmp))?;
-    std::fs::File::open(&tmp)
-        .and_then(|f| f.sync_all())
-        .map_err(io_err(&tmp))?;
-    std::fs::rename(&tmp, path).map_err(io_err(path))
+    crate::atomic::write_atomically(path, bytes).map_err(io_err(path))
 }
 
 /// The version directory a generate call with these arguments uses.

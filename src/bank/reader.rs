@@ -12,7 +12,8 @@ use super::BankError;
 use arrow_array::{Array, Float32Array, Float64Array, UInt32Array};
 use bytes::Bytes;
 use parquet::arrow::arrow_reader::{
-    ArrowReaderMetadata, ArrowReaderOptions, ParquetRecordBatchReaderBuilder,
+    ArrowReaderMetadata, ArrowReaderOptions, ParquetRecordBatchReader,
+    ParquetRecordBatchReaderBuilder,
 };
 use parquet::arrow::ProjectionMask;
 use rayon::prelude::*;
@@ -25,6 +26,20 @@ struct ShardFile {
     bytes: Bytes,
     meta: ArrowReaderMetadata,
     rows: usize,
+}
+
+impl ShardFile {
+    /// A reader of the columns `sorted` (ascending schema indices), all rows in one batch,
+    /// decoding straight from the mapped bytes.
+    fn projected(&self, sorted: &[usize]) -> Result<ParquetRecordBatchReader, BankError> {
+        let schema = self.meta.metadata().file_metadata().schema_descr();
+        let mask = ProjectionMask::roots(schema, sorted.iter().copied());
+        ParquetRecordBatchReaderBuilder::new_with_metadata(self.bytes.clone(), self.meta.clone())
+            .with_projection(mask)
+            .with_batch_size(self.rows.max(1))
+            .build()
+            .map_err(parquet_err(&self.path))
+    }
 }
 
 /// An open bank.
@@ -228,16 +243,7 @@ impl Bank {
         sorted.sort_unstable();
         sorted.dedup();
         for file in &self.files {
-            let schema = file.meta.metadata().file_metadata().schema_descr();
-            let mask = ProjectionMask::roots(schema, sorted.iter().copied());
-            let reader = ParquetRecordBatchReaderBuilder::new_with_metadata(
-                file.bytes.clone(),
-                file.meta.clone(),
-            )
-            .with_projection(mask)
-            .with_batch_size(file.rows.max(1))
-            .build()
-            .map_err(parquet_err(&file.path))?;
+            let reader = file.projected(&sorted)?;
             for batch in reader {
                 let batch = batch.map_err(|e| BankError::Corrupt {
                     path: file.path.clone(),
@@ -298,16 +304,7 @@ impl Bank {
             .par_iter()
             .zip(slots.par_iter_mut())
             .try_for_each(|(file, file_slots)| -> Result<(), BankError> {
-                let schema = file.meta.metadata().file_metadata().schema_descr();
-                let mask = ProjectionMask::roots(schema, sorted.iter().copied());
-                let reader = ParquetRecordBatchReaderBuilder::new_with_metadata(
-                    file.bytes.clone(),
-                    file.meta.clone(),
-                )
-                .with_projection(mask)
-                .with_batch_size(file.rows.max(1))
-                .build()
-                .map_err(parquet_err(&file.path))?;
+                let reader = file.projected(&sorted)?;
                 let mut offset = 0;
                 for batch in reader {
                     let batch = batch.map_err(|e| BankError::Corrupt {

@@ -282,14 +282,12 @@ fn rename_into_place(tmp: &Path, path: &Path) -> Result<(), ReportError> {
     })
 }
 
-/// Writes `bytes` to `path` atomically.
+/// Writes `bytes` to `path` atomically ([`crate::atomic::write_atomically`]).
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ReportError> {
-    let tmp = temp_path(path);
-    if let Err(source) = fs::write(&tmp, bytes) {
-        let _ = fs::remove_file(&tmp);
-        return Err(ReportError::Io { path: tmp, source });
-    }
-    rename_into_place(&tmp, path)
+    crate::atomic::write_atomically(path, bytes).map_err(|source| ReportError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 /// Draws `fig` into a PNG at `path`, atomically.
