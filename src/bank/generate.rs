@@ -113,18 +113,20 @@ pub(crate) fn write_file_atomically(path: &Path, bytes: &[u8]) -> Result<(), Ban
     crate::atomic::write_atomically(path, bytes).map_err(io_err(path))
 }
 
+/// The bank id of a generate call with these arguments.
+fn id_for(cal: &CheckedCalibration, opts: &GenerateOptions) -> String {
+    bank_id(
+        cal,
+        opts.instances,
+        opts.seed,
+        opts.shard_size,
+        &opts.format.name(),
+    )
+}
+
 /// The version directory a generate call with these arguments uses.
 pub fn version_dir(out: &Path, cal: &CheckedCalibration, opts: &GenerateOptions) -> PathBuf {
-    out.join(format!(
-        "v-{}",
-        bank_id(
-            cal,
-            opts.instances,
-            opts.seed,
-            opts.shard_size,
-            &opts.format.name()
-        )
-    ))
+    out.join(format!("v-{}", id_for(cal, opts)))
 }
 
 /// Generates (or resumes, or confirms) a bank in `out`. Runs on the current rayon pool.
@@ -145,15 +147,9 @@ pub fn generate(
             opts.instances
         )));
     }
-    let id = bank_id(
-        cal,
-        opts.instances,
-        opts.seed,
-        opts.shard_size,
-        &opts.format.name(),
-    );
-    let version = out.join(format!("v-{id}"));
+    let id = id_for(cal, opts);
     let version_name = format!("v-{id}");
+    let version = out.join(&version_name);
     let current_path = out.join(CURRENT);
     if opts.machine_shard.is_none() {
         let current = std::fs::read_to_string(&current_path).unwrap_or_default();

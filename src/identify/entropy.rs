@@ -39,21 +39,7 @@ pub fn bin_predictions_into(values: &[f32], width: f64, out: &mut Binned) {
     out.bins
         .extend(values.iter().map(|&v| ((v as f64 - lo) * inv) as u32));
     out.nbins = out.bins.iter().copied().max().map_or(0, |m| m as usize + 1);
-    let mut counts = vec![0u32; out.nbins];
-    for &x in &out.bins {
-        counts[x as usize] += 1;
-    }
-    let n = out.bins.len();
-    let s: f64 = counts
-        .iter()
-        .filter(|&&c| c > 0)
-        .map(|&c| c as f64 * (c as f64).log2())
-        .sum();
-    out.entropy_bits = if n == 0 {
-        0.0
-    } else {
-        (n as f64).log2() - s / n as f64
-    };
+    out.entropy_bits = entropy(out);
 }
 
 /// `c·log2(c)` for c = 0…n.
@@ -69,7 +55,7 @@ fn clog_table(n: usize) -> Vec<f64> {
         .collect()
 }
 
-/// Shannon entropy (bits) of one binned point, counted afresh (reference for the stored value).
+/// Shannon entropy (bits) of one binned point, from its bins.
 pub fn entropy(b: &Binned) -> f64 {
     let n = b.bins.len();
     if n == 0 {

@@ -24,18 +24,7 @@ pub struct CombinedUncertainty {
     sorted: Vec<Vec<f64>>,
 }
 
-fn splitmix64(state: &mut u64) -> u64 {
-    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-/// Uniform [0, 1) from SplitMix64.
-pub(crate) fn uniform(state: &mut u64) -> f64 {
-    (splitmix64(state) >> 11) as f64 / (1u64 << 53) as f64
-}
+pub(crate) use crate::bank::population::uniform;
 
 /// Shortest interval `[lo, hi]` holding a fraction `p` of sorted samples.
 pub fn shortest_interval(sorted: &[f64], p: f64) -> (f64, f64) {

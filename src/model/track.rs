@@ -326,13 +326,19 @@ impl TrackModel {
         self.elements as f64 * self.element.length_m
     }
 
+    /// The element under position `x` and the local coordinate ξ ∈ [0, 1] in it.
+    #[inline]
+    fn element_at(&self, x: f64) -> (usize, f64) {
+        let l = self.element.length_m;
+        let e = ((x / l).floor().max(0.0) as usize).min(self.elements - 1);
+        (e, ((x - e as f64 * l) / l).clamp(0.0, 1.0))
+    }
+
     /// The element under position `x` and the deflection shape functions there, with the
     /// element's DOF indices (`usize::MAX` marks a constrained DOF, whose weight is zeroed).
     #[inline]
     pub fn locate(&self, x: f64) -> ([usize; 4], [f64; 4]) {
-        let l = self.element.length_m;
-        let e = ((x / l).floor().max(0.0) as usize).min(self.elements - 1);
-        let xi = ((x - e as f64 * l) / l).clamp(0.0, 1.0);
+        let (e, xi) = self.element_at(x);
         let mut n = self.element.n_w(xi);
         let dofs = [
             self.node_w[e],
@@ -353,10 +359,7 @@ impl TrackModel {
     /// Compliance of the element interior at `x` (see [`TimoshenkoElement::interior_compliance`]).
     #[inline]
     pub fn interior_compliance_at(&self, x: f64) -> f64 {
-        let l = self.element.length_m;
-        let e = ((x / l).floor().max(0.0) as usize).min(self.elements - 1);
-        self.element
-            .interior_compliance(((x - e as f64 * l) / l).clamp(0.0, 1.0))
+        self.element.interior_compliance(self.element_at(x).1)
     }
 
     /// Rail deflection at `x` interpolated with the element shape functions.
