@@ -75,7 +75,7 @@ fn bench_identify(c: &mut Criterion) {
         .collect();
     c.bench_function(
         &format!("falsification_pass_{}_points_{n}_instances", points.len()),
-        |b| b.iter(|| falsify(black_box(&points))),
+        |b| b.iter(|| falsify(black_box(&points), id.resolution())),
     );
 }
 

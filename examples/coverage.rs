@@ -1,5 +1,5 @@
 //! Coverage study on a bank (issue #4's acceptance, full-size version):
-//! `cargo run --release --example coverage -- BANK_DIR [CASES] [SEED]`.
+//! `cargo run --release --example coverage -- BANK_DIR [CASES] [SEED] [KAPPA]`.
 //! Prints one line per case and the summary: how often the truth lies inside the candidate
 //! model set's (L, d) ranges, the median L0 width, the CMS sizes, for the EIP and the baselines.
 use std::path::Path;
@@ -10,7 +10,7 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let dir = args
         .get(1)
-        .expect("usage: coverage BANK_DIR [CASES] [SEED]");
+        .expect("usage: coverage BANK_DIR [CASES] [SEED] [KAPPA]");
     let cases: usize = args
         .get(2)
         .map_or(50, |s| s.parse().expect("CASES is a number"));
@@ -24,8 +24,13 @@ fn main() {
         .clone()
         .check()
         .expect("stored calibration is valid");
-    let id = Identifier::new(bank, cal.identification.clone()).expect("identifier");
-    let results = coverage::run(&id, &cal, cases, seed, true).expect("study");
+    let mut settings = cal.identification.clone();
+    if let Some(k) = args.get(4) {
+        settings.bank_resolution = k.parse().expect("KAPPA is a number");
+    }
+    let id = Identifier::new(bank, settings).expect("identifier");
+    let baselines = std::env::var_os("NO_BASELINES").is_none();
+    let results = coverage::run(&id, &cal, cases, seed, baselines).expect("study");
     println!("case  L_mm    d_mm   X_p_m   L0_mm | EIP pts CMS covered L0 | equidistant CMS covered | random mean | RM L0");
     for r in &results {
         println!(

@@ -137,20 +137,40 @@ fn calibration_round_trips_and_bad_values_name_file_key_and_value() {
 }
 
 #[test]
-fn demo_writes_csv_and_plots() {
+fn demo_runs_the_whole_main_job_and_reuses_its_bank() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("demo");
-    wheelflat()
-        .args(["demo", "--out"])
-        .arg(&out)
-        .assert()
-        .success();
+    let bank = dir.path().join("bank");
+    let run = || {
+        wheelflat()
+            .args(["demo", "--instances", "300", "--out"])
+            .arg(&out)
+            .arg("--bank")
+            .arg(&bank)
+            .assert()
+            .success()
+    };
+    let first = String::from_utf8(run().get_output().stdout.clone()).unwrap();
+    assert!(first.contains("bank complete: 300 instances"), "{first}");
+    assert!(
+        first.contains("model instances survive") || first.contains("refuted"),
+        "{first}"
+    );
+    assert!(first.contains("truth: L0"), "{first}");
     for f in [
         "good-wheel.csv",
         "good-wheel.png",
         "flat-60mm.csv",
         "flat-60mm.png",
+        "measurement.csv",
+        "measurement.truth.json",
+        "identification/identification.json",
+        "identification/report.html",
+        "identification/series.png",
     ] {
-        assert!(out.join(f).metadata().unwrap().len() > 1000, "{f}");
+        assert!(out.join(f).metadata().unwrap().len() > 200, "{f}");
     }
+    // Second run: the bank is up to date and not simulated again.
+    let second = String::from_utf8(run().get_output().stdout.clone()).unwrap();
+    assert!(second.contains("is up to date"), "{second}");
 }

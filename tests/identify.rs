@@ -158,13 +158,12 @@ fn cross_correlation_finds_the_same_shift_as_the_laser_trigger() {
     assert!(b.alignment.correlation.unwrap() > 0.95);
 }
 
-/// Issue #4's acceptance test. It FAILS today (measured: EIP coverage 0.20, equidistant 1.00,
-/// see the README, "Identification (issue #4)"): the entropy-selected points sit on impact
-/// transients where the measured force is small, so the thresholds (relative to the measured
-/// force) are narrow while the bank's instances, a finite sample of the parameter space,
-/// differ from the truth there by more. Kept, ignored, as the target to meet.
+/// Issue #4's acceptance test, CI-sized: 50 seeded synthetic cases with truths between the
+/// bank's instances and errors drawn inside the uncertainty table. EDMF promises the truth
+/// survives with probability φ = 0.95; on a finite bank that holds once each instance is judged
+/// for its cell (`bank_resolution`, see `identify::cells`). Measured: coverage 0.98, median CMS
+/// 82, random subsets 262 on average (README, "Identification").
 #[test]
-#[ignore = "known failure, issue #4 open: EIP coverage 0.20 < 0.95 on the CI-sized bank"]
 fn truth_is_covered_in_at_least_95_percent_of_seeded_cases() {
     let id = identifier();
     let (_, cal) = small_bank();
@@ -180,10 +179,12 @@ fn truth_is_covered_in_at_least_95_percent_of_seeded_cases() {
     println!("random subsets: mean CMS {random_mean:.1}");
     // EDMF's promise at φ = 0.95 (issue #4).
     assert!(cov >= 0.95, "coverage {cov}");
-    // The entropy-selected points keep fewer instances than random subsets of the same size.
+    // The entropy-selected points keep far fewer instances than random subsets of the same
+    // size (paper: 15 against 180): at most half as many on average.
     let eip_mean = results.iter().map(|r| r.eip.0 as f64).sum::<f64>() / results.len() as f64;
+    println!("EIP mean CMS {eip_mean:.1}");
     assert!(
-        eip_mean < random_mean,
+        eip_mean < 0.5 * random_mean,
         "EIP mean CMS {eip_mean} vs random {random_mean}"
     );
 }

@@ -106,10 +106,27 @@ fn open_shard(path: &Path) -> Result<(Bytes, ArrowReaderMetadata, BankMetadata),
             path: path.to_path_buf(),
             message: format!("no `{METADATA_KEY}` metadata: not a wheelflat bank file"),
         })?;
-    let bank_meta: BankMetadata = serde_json::from_str(&kv).map_err(|e| BankError::Corrupt {
+    let bad = |e: serde_json::Error| BankError::Corrupt {
         path: path.to_path_buf(),
         message: format!("bad `{METADATA_KEY}` metadata: {e}"),
-    })?;
+    };
+    let bank_meta: BankMetadata = match serde_json::from_str(&kv) {
+        Ok(m) => m,
+        // The identification settings are not part of a bank's identity: a bank written by a
+        // version with other identification keys opens with today's defaults for them.
+        Err(first) => {
+            let mut v: serde_json::Value = serde_json::from_str(&kv).map_err(bad)?;
+            let dropped = v
+                .get_mut("calibration")
+                .and_then(|c| c.as_object_mut())
+                .and_then(|c| c.remove("identification"))
+                .is_some();
+            if !dropped {
+                return Err(bad(first));
+            }
+            serde_json::from_value(v).map_err(|_| bad(first))?
+        }
+    };
     Ok((bytes, meta, bank_meta))
 }
 

@@ -202,6 +202,21 @@ mod tests {
     use super::*;
 
     #[test]
+    fn bank_identity_ignores_the_identification_settings_but_not_the_model() {
+        let base = Calibration::default();
+        let id = |c: &Calibration| bank_id(&c.clone().check().unwrap(), 100, 0, 50, "plain");
+        let mut other = base.clone();
+        other.identification.phi = 0.9;
+        other.identification.bank_resolution = 0.0;
+        other.identification.uncertainty.clear();
+        assert_eq!(id(&base), id(&other));
+        assert!(!base.model_toml_string().contains("identification"));
+        let mut model = base.clone();
+        model.run.speed_km_per_h += 1.0;
+        assert_ne!(id(&base), id(&model));
+    }
+
+    #[test]
     fn sample_columns_are_zero_padded_without_dots() {
         assert_eq!(sample_column("rps2", 137, 1000), "rps2_t0137");
         assert_eq!(sample_column("rps1", 5, 20000), "rps1_t00005");

@@ -46,11 +46,18 @@ enum Command {
     Identify(IdentifyArgs),
     /// Print the paper-style comparison of the method with its baselines for one measurement.
     Compare(CompareArgs),
-    /// Run the main job on built-in defaults and write its outputs to a folder.
+    /// Run the main job on built-in defaults: simulate, build the bank on first use (with
+    /// progress), make a synthetic field measurement, identify the flat, write the report.
     Demo {
         /// Output folder.
         #[arg(long, default_value = "wheelflat-demo")]
         out: PathBuf,
+        /// Bank directory (built here on first use; reused while it is up to date).
+        #[arg(long, default_value = "bank")]
+        bank: PathBuf,
+        /// Instances in the bank (the paper's 50,000; fewer for a quick look).
+        #[arg(long, default_value_t = 50_000)]
+        instances: usize,
     },
 }
 
@@ -242,7 +249,11 @@ pub fn main() -> ExitCode {
         Command::Synth(a) => cmd_synth(&a),
         Command::Identify(a) => cmd_identify(&a),
         Command::Compare(a) => cmd_compare(&a),
-        Command::Demo { out } => cmd_demo(&out),
+        Command::Demo {
+            out,
+            bank,
+            instances,
+        } => cmd_demo(&out, &bank, instances),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -438,7 +449,10 @@ fn cmd_simulate(a: &SimulateArgs) -> Result<()> {
     Ok(())
 }
 
-fn cmd_demo(out: &Path) -> Result<()> {
+/// The demo's field case: a flat between the bank's instances, errors seeded.
+const DEMO_FLAT: (f64, f64, f64, f64, u64) = (62.0, 0.55, 0.05, 12.156, 3);
+
+fn cmd_demo(out: &Path, bank_dir: &Path, instances: usize) -> Result<()> {
     std::fs::create_dir_all(out)
         .with_context(|| format!("cannot create output folder {}", out.display()))?;
     let cal = load_calibration(None)?;
@@ -447,6 +461,7 @@ fn cmd_demo(out: &Path) -> Result<()> {
         "wheelflat demo: built-in calibration (MODEL.md defaults), outputs in {}",
         out.display()
     );
+    println!("\n1. Simulate");
     for (name, flat) in [
         ("good-wheel", None),
         ("flat-60mm", Some(Flat::from_mm(60.0, 0.5, 0.1, 12.4)?)),
@@ -460,7 +475,73 @@ fn cmd_demo(out: &Path) -> Result<()> {
         print!("{}", response_summary(&cal, &resp));
         println!("wrote {} and {}", csv.display(), png.display());
     }
+
+    println!(
+        "\n2. Bank ({instances} instances in {})",
+        bank_dir.display()
+    );
+    let bank_args = DemoBank::try_parse_from([
+        "demo".as_ref(),
+        "--out".as_ref(),
+        bank_dir.as_os_str(),
+        "--instances".as_ref(),
+        instances.to_string().as_ref(),
+    ])
+    .context("demo bank arguments")?;
+    cmd_bank_generate(&bank_args.generate, true)?;
+
+    let (l, d, c, xp, seed) = DEMO_FLAT;
+    let flat = Flat::from_mm(l, d, c, xp)?;
+    println!("\n3. Synthetic field measurement");
+    let syn = identify::synth::synthesize(&cal, &flat, seed, true)?;
+    let measured = out.join("measurement.csv");
+    let truth_path = out.join("measurement.truth.json");
+    write_atomically(&measured, syn.csv.as_bytes())?;
+    let json = serde_json::to_string_pretty(&syn.truth).expect("truth serialises");
+    write_atomically(&truth_path, json.as_bytes())?;
+    println!(
+        "{} (L0 {:.1} mm), errors drawn inside the uncertainty table with seed {seed}: wrote {} and {}",
+        flat_title(Some(&flat)),
+        syn.truth.l0_mm,
+        measured.display(),
+        truth_path.display()
+    );
+
+    println!("\n4. Identify");
+    let input = MeasuredArgs {
+        bank: bank_dir.to_path_buf(),
+        measured,
+        sensors: None,
+        calibration: None,
+    };
+    let (identifier, m) = open_identifier(&input)?;
+    let id = identifier.identify(
+        &m,
+        None,
+        Extras {
+            baselines: true,
+            curves: true,
+        },
+    )?;
+    let report = out.join("identification");
+    let files = crate::report::identify::write_identification_report(&id, &report)
+        .with_context(|| format!("cannot write the report in {}", report.display()))?;
+    print_identification(&id);
+    print!("{}", comparison_table(&id, Some(&syn.truth)));
+    println!(
+        "wrote {} and {} ({} figures)",
+        files.json.display(),
+        files.html.display(),
+        files.figures.len()
+    );
     Ok(())
+}
+
+/// The bank arguments of the demo, parsed like `wheelflat bank generate`'s.
+#[derive(Debug, Parser)]
+struct DemoBank {
+    #[command(flatten)]
+    generate: GenerateArgs,
 }
 
 /// Progress of a bank generation: an indicatif bar on a terminal, plain periodic log lines

@@ -69,16 +69,20 @@ pub fn run(
             },
         )?;
         let t = &syn.truth;
+        let inside = |r: Option<&super::result::ParamRanges>| {
+            r.is_some_and(|r| {
+                r.length_mm[0] <= t.length_mm
+                    && t.length_mm <= r.length_mm[1]
+                    && r.depth_mm[0] <= t.depth_mm
+                    && t.depth_mm <= r.depth_mm[1]
+            })
+        };
         let judge = |f: Option<&super::result::Falsification>| match f {
-            Some(f) => {
-                let inside = f.ranges.as_ref().is_some_and(|r| {
-                    r.length_mm[0] <= t.length_mm
-                        && t.length_mm <= r.length_mm[1]
-                        && r.depth_mm[0] <= t.depth_mm
-                        && t.depth_mm <= r.depth_mm[1]
-                });
-                (f.cms_count, inside, f.ranges.as_ref().map(|r| r.l0_mm))
-            }
+            Some(f) => (
+                f.cms_count,
+                inside(f.ranges.as_ref()),
+                f.ranges.as_ref().map(|r| r.l0_mm),
+            ),
             None => (0, false, None),
         };
         out.push(CaseResult {

@@ -13,6 +13,8 @@
 //! nothing and are skipped. With `H = log2 N − (1/N)·Σ_cells c·log2 c`, the gain of a candidate
 //! is `(1/N)·Σ_groups (n_g·log2 n_g − Σ_b c_gb·log2 c_gb)`.
 
+use rayon::prelude::*;
+
 /// The predictions at one point, as bin numbers, with their entropy.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Binned {
@@ -106,6 +108,7 @@ pub fn greedy_joint_entropy(
         return sel;
     }
     let clog = clog_table(n);
+    let threads = rayon::current_num_threads().max(1);
     let max_bins = candidates.iter().map(|c| c.nbins).max().unwrap_or(1).max(1);
     // Active instances in group order; groups are (start, len) runs of it, all len ≥ 2.
     let mut active: Vec<u32> = (0..n as u32).collect();
@@ -160,14 +163,31 @@ pub fn greedy_joint_entropy(
             if fresh[pos] {
                 break pos;
             }
-            bounds[pos] = gain_of(
-                &candidates[remaining[pos]].bins,
-                &active,
-                &groups,
-                &mut counts,
-                &mut touched,
-            );
-            fresh[pos] = true;
+            // Re-evaluate the stale candidates with the highest bounds, one per thread, in
+            // parallel; the choice is the same as one at a time (a stale bound only ever
+            // falls when refreshed).
+            let mut stale: Vec<usize> = (0..remaining.len()).filter(|&p| !fresh[p]).collect();
+            stale.sort_by(|&a, &b| bounds[b].total_cmp(&bounds[a]).then(a.cmp(&b)));
+            stale.truncate(threads);
+            let gains: Vec<f64> = stale
+                .par_iter()
+                .map_init(
+                    || (vec![0u32; max_bins], Vec::with_capacity(64)),
+                    |(counts, touched), &p| {
+                        gain_of(
+                            &candidates[remaining[p]].bins,
+                            &active,
+                            &groups,
+                            counts,
+                            touched,
+                        )
+                    },
+                )
+                .collect();
+            for (&p, g) in stale.iter().zip(gains) {
+                bounds[p] = g;
+                fresh[p] = true;
+            }
         };
         let best_gain = bounds[best];
         if best_gain < alpha_bits || best_gain <= 1e-12 {
@@ -180,41 +200,45 @@ pub fn greedy_joint_entropy(
         sel.order.push(chosen);
         sel.joint_bits.push(joint);
 
-        // Refine every group by the chosen bins (counting sort within the run); keep only the
-        // sub-groups of two or more.
+        // Refine every group by the chosen bins (counting sort within the run, over the bins
+        // the run touches only, so a small group costs its size, not the number of bins); keep
+        // only the sub-groups of two or more.
         let bins = &candidates[chosen].bins;
         let mut next_active: Vec<u32> = Vec::with_capacity(active.len());
         let mut next_groups: Vec<(usize, usize)> = Vec::new();
-        let mut offsets = vec![0usize; candidates[chosen].nbins + 1];
-        let mut sorted: Vec<u32> = Vec::new();
+        let mut slots = vec![0u32; candidates[chosen].nbins];
         for &(start, len) in &groups {
             let run = &active[start..start + len];
             for &k in run {
-                offsets[bins[k as usize] as usize + 1] += 1;
-            }
-            let sizes = offsets.clone();
-            let mut acc = 0;
-            for o in offsets.iter_mut() {
-                let size = *o;
-                *o = acc;
-                acc += size;
-            }
-            sorted.clear();
-            sorted.resize(len, 0);
-            for &k in run {
-                let slot = &mut offsets[bins[k as usize] as usize + 1];
-                sorted[*slot] = k;
-                *slot += 1;
-            }
-            let mut at = 0;
-            for &size in &sizes[1..] {
-                if size > 1 {
-                    next_groups.push((next_active.len(), size));
-                    next_active.extend_from_slice(&sorted[at..at + size]);
+                let b = bins[k as usize] as usize;
+                if counts[b] == 0 {
+                    touched.push(b as u32);
                 }
-                at += size;
+                counts[b] += 1;
             }
-            offsets.iter_mut().for_each(|o| *o = 0);
+            // Lay the sub-groups of two or more out in `next_active`, in first-seen bin order.
+            let base = next_active.len();
+            let mut acc = base as u32;
+            for &b in touched.iter() {
+                let c = counts[b as usize];
+                if c > 1 {
+                    next_groups.push((acc as usize, c as usize));
+                    slots[b as usize] = acc;
+                    acc += c;
+                }
+            }
+            next_active.resize(acc as usize, 0);
+            for &k in run {
+                let b = bins[k as usize] as usize;
+                if counts[b] > 1 {
+                    next_active[slots[b] as usize] = k;
+                    slots[b] += 1;
+                }
+            }
+            for &b in touched.iter() {
+                counts[b as usize] = 0;
+            }
+            touched.clear();
         }
         active = next_active;
         groups = next_groups;

@@ -3,6 +3,7 @@
 //! An instance survives only if `T_low,i ≤ g_i(θ) − y_i ≤ T_high,i` at every comparison point
 //! i; the survivors are the candidate model set (CMS).
 
+use super::cells::Cells;
 use super::uncertainty::uniform;
 use rayon::prelude::*;
 
@@ -19,18 +20,50 @@ pub struct Point<'a> {
     pub high_kn: f64,
 }
 
+/// The bank's resolution as used by falsification (see [`super::cells`]): instance i passes a
+/// point when the measured value lies within the thresholds widened by `κ·spread_i`, the
+/// largest prediction difference to a neighbour times κ.
+#[derive(Debug, Clone, Copy)]
+pub struct Resolution<'a> {
+    /// The neighbour graph.
+    pub cells: &'a Cells,
+    /// κ: 0.5 is half-way to the farthest neighbour, about the edge of the instance's cell.
+    pub kappa: f64,
+}
+
+/// Whether instance `k` passes point `p` (bounds already shifted by the measurement).
+#[inline]
+fn passes(p: &Point, lo: f64, hi: f64, k: usize, res: Option<Resolution>) -> bool {
+    let g = p.predictions[k] as f64;
+    if g >= lo && g <= hi {
+        return true;
+    }
+    // The neighbours cost K gathers: only looked at where the plain test fails, and only
+    // until one differs by enough (|g_j − g_k| ≥ distance to the band / κ).
+    res.is_some_and(|r| {
+        let need = if g > hi { g - hi } else { lo - g };
+        r.kappa > 0.0 && r.cells.spread_reaches(p.predictions, k, need / r.kappa)
+    })
+}
+
 /// Instances that no point falsifies (indices into the prediction vectors).
-pub fn falsify(points: &[Point]) -> Vec<u32> {
+pub fn falsify(points: &[Point], res: Option<Resolution>) -> Vec<u32> {
     let n = points.first().map_or(0, |p| p.predictions.len());
     // Check the points one at a time over shrinking survivor lists: most instances fall at the
     // first points, and each pass reads one contiguous column.
     let mut alive: Vec<u32> = (0..n as u32).collect();
     for p in points {
         let (lo, hi) = (p.measured_kn + p.low_kn, p.measured_kn + p.high_kn);
-        alive.retain(|&k| {
-            let g = p.predictions[k as usize] as f64;
-            g >= lo && g <= hi
-        });
+        if alive.len() > 8192 {
+            // Large lists in parallel (order kept); the neighbour gathers dominate.
+            alive = alive
+                .par_iter()
+                .copied()
+                .filter(|&k| passes(p, lo, hi, k as usize, res))
+                .collect();
+        } else {
+            alive.retain(|&k| passes(p, lo, hi, k as usize, res));
+        }
         if alive.is_empty() {
             break;
         }
@@ -39,7 +72,7 @@ pub fn falsify(points: &[Point]) -> Vec<u32> {
 }
 
 /// Number of survivors only (no allocation per instance; for the random-subset baseline).
-pub fn survivors_count(points: &[Point]) -> usize {
+pub fn survivors_count(points: &[Point], res: Option<Resolution>) -> usize {
     let n = points.first().map_or(0, |p| p.predictions.len());
     let bounds: Vec<(f64, f64)> = points
         .iter()
@@ -47,10 +80,10 @@ pub fn survivors_count(points: &[Point]) -> usize {
         .collect();
     (0..n)
         .filter(|&k| {
-            points.iter().zip(&bounds).all(|(p, &(lo, hi))| {
-                let g = p.predictions[k] as f64;
-                g >= lo && g <= hi
-            })
+            points
+                .iter()
+                .zip(&bounds)
+                .all(|(p, &(lo, hi))| passes(p, lo, hi, k, res))
         })
         .count()
 }
@@ -81,6 +114,7 @@ pub fn random_subset_counts(
     size: usize,
     subsets: usize,
     seed: u64,
+    res: Option<Resolution>,
 ) -> Vec<usize> {
     let mut state = seed ^ 0x00AB_CDEF_1234_5678;
     let draws: Vec<Vec<usize>> = (0..subsets)
@@ -99,7 +133,7 @@ pub fn random_subset_counts(
         .par_iter()
         .map(|d| {
             let chosen: Vec<Point> = d.iter().map(|&i| points[i]).collect();
-            survivors_count(&chosen)
+            survivors_count(&chosen, res)
         })
         .collect()
 }
@@ -126,9 +160,39 @@ mod tests {
                 high_kn: 0.6,
             },
         ];
-        assert_eq!(falsify(&pts), vec![1, 2]);
-        assert_eq!(survivors_count(&pts), 2);
+        assert_eq!(falsify(&pts, None), vec![1, 2]);
+        assert_eq!(survivors_count(&pts, None), 2);
         assert_eq!(residual_minimisation(&pts), 1);
+    }
+
+    #[test]
+    fn resolution_widens_each_instance_by_its_own_neighbour_spread() {
+        use crate::identify::cells::Cells;
+        // Four instances on a line in L; the predictions jump between instances 1 and 2.
+        let unit: Vec<[f64; 4]> = (0..4).map(|i| [i as f64 / 3.0, 0.5, 0.5, 0.5]).collect();
+        let cells = Cells::from_points(&unit, &unit);
+        let g = [0.0f32, 0.0, 8.0, 8.0];
+        let pts = [Point {
+            predictions: &g,
+            measured_kn: 5.0,
+            low_kn: -1.0,
+            high_kn: 1.0,
+        }];
+        assert!(falsify(&pts, None).is_empty(), "nothing within ±1 kN of 5");
+        // With four instances everyone neighbours everyone, so every spread is 8 kN.
+        let res = Resolution {
+            cells: &cells,
+            kappa: 0.5,
+        };
+        // Widening 4 kN: the band [4, 6] becomes [0, 10] and holds every instance.
+        assert_eq!(falsify(&pts, Some(res)), vec![0, 1, 2, 3]);
+        let tight = Resolution {
+            cells: &cells,
+            kappa: 0.25,
+        };
+        // Widening 2 kN: band [2, 8] holds the 8 kN instances only.
+        assert_eq!(falsify(&pts, Some(tight)), vec![2, 3]);
+        assert_eq!(survivors_count(&pts, Some(tight)), 2);
     }
 
     #[test]
@@ -145,8 +209,8 @@ mod tests {
                 high_kn: 4.0,
             })
             .collect();
-        let a = random_subset_counts(&pts, 3, 50, 7);
-        assert_eq!(a, random_subset_counts(&pts, 3, 50, 7));
+        let a = random_subset_counts(&pts, 3, 50, 7, None);
+        assert_eq!(a, random_subset_counts(&pts, 3, 50, 7, None));
         assert_eq!(a.len(), 50);
     }
 }

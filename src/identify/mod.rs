@@ -5,6 +5,7 @@
 //! parameters, the Monte Carlo uncertainty samples); [`Identifier::identify`] is the per-
 //! measurement path: align, PIP, read the candidate columns, entropy selection, falsify.
 
+pub mod cells;
 pub mod coverage;
 pub mod entropy;
 pub mod falsify;
@@ -19,8 +20,9 @@ pub use result::Identification;
 
 use crate::bank::{Bank, BankError, Parameters};
 use crate::model::calibration::IdentificationParams;
+use cells::Cells;
 use entropy::{bin_predictions_into, greedy_joint_entropy, Binned};
-use falsify::{falsify, random_subset_counts, residual_minimisation, Point};
+use falsify::{falsify, random_subset_counts, residual_minimisation, Point, Resolution};
 use pip::{perceptually_important_points, PipDistance};
 use result::{
     Alignment, CandidatePoint, EntropyCurve, Falsification, InstanceParams, MeasuredSeries,
@@ -86,30 +88,39 @@ pub struct Extras {
 pub struct Identifier {
     bank: Bank,
     params: Parameters,
-    /// (anchor instance, its nearest neighbour in normalised parameter space).
-    neighbours: Vec<(usize, usize)>,
+    /// Each instance's neighbours and cell (the bank's resolution).
+    cells: Cells,
     settings: IdentificationParams,
     uncertainty: CombinedUncertainty,
     buffers: Mutex<Vec<Vec<f32>>>,
     bin_buffers: Mutex<Vec<Binned>>,
 }
 
+/// The parameter ranges of a set of instances: the union of their cells when `cells` is
+/// given (what the bank can resolve), else the hull of the instances themselves.
 fn ranges_of(
     params: &Parameters,
+    cells: Option<&Cells>,
+    population: &crate::model::calibration::PopulationParams,
+    wheel_radius_m: f64,
     members: impl Iterator<Item = usize> + Clone,
 ) -> Option<ParamRanges> {
     members.clone().next()?;
-    let r = |v: &[f64]| {
-        members.clone().fold([f64::MAX, f64::MIN], |[lo, hi], k| {
-            [lo.min(v[k]), hi.max(v[k])]
-        })
+    let r = |v: &[f64], t: usize, clamp: [f64; 2]| {
+        let [lo, hi] = members.clone().fold([f64::MAX, f64::MIN], |[lo, hi], k| {
+            let h = cells.map_or(0.0, |c| c.half_extent(k)[t]);
+            [lo.min(v[k] - h), hi.max(v[k] + h)]
+        });
+        [lo.max(clamp[0]), hi.min(clamp[1])]
     };
+    let depth_mm = r(&params.depth_mm, 1, population.depth_mm);
+    let l0 = |d: f64| (8.0 * d * wheel_radius_m * 1e3).sqrt();
     Some(ParamRanges {
-        length_mm: r(&params.length_mm),
-        depth_mm: r(&params.depth_mm),
-        curvature_mm: r(&params.curvature_mm),
-        impact_position_m: r(&params.impact_position_m),
-        l0_mm: r(&params.l0_mm),
+        length_mm: r(&params.length_mm, 0, population.length_mm),
+        depth_mm,
+        curvature_mm: r(&params.curvature_mm, 2, population.curvature_mm),
+        impact_position_m: r(&params.impact_position_m, 3, population.impact_position_m),
+        l0_mm: [l0(depth_mm[0]), l0(depth_mm[1])],
     })
 }
 
@@ -130,11 +141,11 @@ impl Identifier {
     pub fn new(bank: Bank, settings: IdentificationParams) -> Result<Identifier, IdentifyError> {
         let params = bank.read_parameters()?;
         let uncertainty = CombinedUncertainty::new(&settings);
-        let neighbours = nearest_neighbours(&params, &bank.metadata().calibration.population, 256);
+        let cells = Cells::new(&params, &bank.metadata().calibration.population);
         Ok(Identifier {
             bank,
             params,
-            neighbours,
+            cells,
             settings,
             uncertainty,
             buffers: Mutex::new(Vec::new()),
@@ -152,20 +163,32 @@ impl Identifier {
         &self.settings
     }
 
-    /// Population-sampling bound at a point: the quantile `q` (the per-point probability) of
-    /// `|g(a) − g(nn(a))|` over the anchor instances (0 when the term is switched off).
-    fn sampling_bound(&self, predictions: &[f32], q: f64) -> f64 {
-        if !self.settings.population_sampling || self.neighbours.is_empty() {
-            return 0.0;
+    /// The bank's resolution as falsification uses it (`None` when switched off).
+    pub fn resolution(&self) -> Option<Resolution<'_>> {
+        (self.settings.bank_resolution > 0.0).then_some(Resolution {
+            cells: &self.cells,
+            kappa: self.settings.bank_resolution,
+        })
+    }
+
+    /// The typical widening at a point: κ × the median neighbour spread (0 when off).
+    fn typical_widening(&self, predictions: &[f32]) -> f64 {
+        match self.resolution() {
+            Some(r) => r.kappa * r.cells.typical_spread(predictions, 1024),
+            None => 0.0,
         }
-        let mut d: Vec<f64> = self
-            .neighbours
-            .iter()
-            .map(|&(a, b)| (predictions[a] as f64 - predictions[b] as f64).abs())
-            .collect();
-        d.sort_by(f64::total_cmp);
-        let k = ((q * d.len() as f64).ceil() as usize).clamp(1, d.len()) - 1;
-        d[k]
+    }
+
+    /// The parameter ranges a set of instances stands for.
+    fn ranges(&self, members: impl Iterator<Item = usize> + Clone) -> Option<ParamRanges> {
+        let cal = &self.bank.metadata().calibration;
+        ranges_of(
+            &self.params,
+            self.resolution().map(|r| r.cells),
+            &cal.population,
+            cal.vehicle.wheel_radius_m,
+            members,
+        )
     }
 
     /// Identifies the flat behind one measurement. `sensors` restricts the sensors used.
@@ -317,10 +340,18 @@ impl Identifier {
         let all: Vec<usize> = (0..cands.len()).collect();
         // Entropy bins at the Šídák width for m points; m comes from the selection itself, so
         // select with m = 1, then again with the m found (the widths, and so the choice, change).
+        // Bin width: the thresholds widened by the bank's typical resolution at the point, so
+        // points the bank cannot resolve (moving impact edges) are not taken as informative.
+        let widening: Vec<f64> = {
+            use rayon::prelude::*;
+            predictions
+                .par_iter()
+                .map(|g| self.typical_widening(g))
+                .collect()
+        };
         let bounds = |i: usize, p: f64| {
             let (lo, hi) = self.uncertainty.thresholds(measured[i], p);
-            let d = self.sampling_bound(&predictions[i], p);
-            (lo - d, hi + d)
+            (lo - widening[i], hi + widening[i])
         };
         let mut binned = self.bin_buffers.lock().unwrap_or_else(|e| e.into_inner());
         binned.resize_with(measured.len(), Binned::default);
@@ -331,20 +362,22 @@ impl Identifier {
                 bin_predictions_into(&predictions[i], hi - lo, b);
             });
         };
+        lap("resolution", &mut timings);
         bin_all(s.phi, &mut binned);
+        lap("binning 1", &mut timings);
         let first = greedy_joint_entropy(&binned, &all, alpha, cands.len());
         let m1 = first.order.len().max(1);
         let p = s.phi.powf(1.0 / m1 as f64);
+        lap("greedy 1", &mut timings);
         bin_all(p, &mut binned);
+        lap("binning 2", &mut timings);
         let selection = greedy_joint_entropy(&binned, &all, alpha, m1);
         let m_final = selection.order.len().max(1);
         let p_final = s.phi.powf(1.0 / m_final as f64);
         lap("entropy selection", &mut timings);
 
-        let thresholds: Vec<(f64, f64)> = (0..measured.len()).map(|i| bounds(i, p_final)).collect();
-        let sampling: Vec<f64> = predictions
-            .iter()
-            .map(|g| self.sampling_bound(g, p_final))
+        let thresholds: Vec<(f64, f64)> = (0..measured.len())
+            .map(|i| self.uncertainty.thresholds(measured[i], p_final))
             .collect();
         let point = |i: usize| Point {
             predictions: &predictions[i],
@@ -353,7 +386,7 @@ impl Identifier {
             high_kn: thresholds[i].1,
         };
         let eip_points: Vec<Point> = selection.order.iter().map(|&i| point(i)).collect();
-        let cms_idx = falsify(&eip_points);
+        let cms_idx = falsify(&eip_points, self.resolution());
         lap("falsify", &mut timings);
 
         let candidates: Vec<CandidatePoint> = cands
@@ -368,14 +401,14 @@ impl Identifier {
                 entropy_bits: binned[i].entropy_bits,
                 threshold_low_kn: thresholds[i].0,
                 threshold_high_kn: thresholds[i].1,
-                sampling_kn: sampling[i],
+                resolution_kn: widening[i],
             })
             .collect();
         let cms: Vec<InstanceParams> = cms_idx
             .iter()
             .map(|&k| instance(&self.params, k as usize))
             .collect();
-        let cms_ranges = ranges_of(&self.params, cms_idx.iter().map(|&k| k as usize));
+        let cms_ranges = self.ranges(cms_idx.iter().map(|&k| k as usize));
         let mut falsifications = vec![Falsification {
             method: "EIP (joint entropy)".into(),
             points: m_final,
@@ -387,7 +420,13 @@ impl Identifier {
         let mut random_subsets = None;
         if extras.baselines {
             let all_points: Vec<Point> = (0..cands.len()).map(point).collect();
-            let counts = random_subset_counts(&all_points, m_final, s.random_subsets, s.seed);
+            let counts = random_subset_counts(
+                &all_points,
+                m_final,
+                s.random_subsets,
+                s.seed,
+                self.resolution(),
+            );
             let mut sorted = counts.clone();
             sorted.sort_unstable();
             let median = if sorted.is_empty() {
@@ -432,21 +471,20 @@ impl Identifier {
                 .map(|(&(si, k), g)| {
                     let y = series[si].values_kn[k];
                     let (lo, hi) = self.uncertainty.thresholds(y, p_final);
-                    let d = self.sampling_bound(g, p_final);
                     Point {
                         predictions: g,
                         measured_kn: y,
-                        low_kn: lo - d,
-                        high_kn: hi + d,
+                        low_kn: lo,
+                        high_kn: hi,
                     }
                 })
                 .collect();
-            let eq_cms = falsify(&eq_points);
+            let eq_cms = falsify(&eq_points, self.resolution());
             falsifications.push(Falsification {
                 method: "equidistant points".into(),
                 points: eq_points.len(),
                 cms_count: eq_cms.len(),
-                ranges: ranges_of(&self.params, eq_cms.iter().map(|&k| k as usize)),
+                ranges: self.ranges(eq_cms.iter().map(|&k| k as usize)),
             });
             lap("baselines", &mut timings);
         }
@@ -519,60 +557,6 @@ impl Identifier {
             timings_ms: timings,
         })
     }
-}
-
-/// For `anchors` instances spread over the bank, the nearest other instance in parameter
-/// space (L, d, c, X_p each scaled to its population range). Brute force: anchors × N.
-fn nearest_neighbours(
-    p: &Parameters,
-    ranges: &crate::model::calibration::PopulationParams,
-    anchors: usize,
-) -> Vec<(usize, usize)> {
-    let n = p.length_mm.len();
-    if n < 2 {
-        return Vec::new();
-    }
-    let scale = |r: [f64; 2]| {
-        if r[1] > r[0] {
-            1.0 / (r[1] - r[0])
-        } else {
-            0.0
-        }
-    };
-    let s = [
-        scale(ranges.length_mm),
-        scale(ranges.depth_mm),
-        scale(ranges.curvature_mm),
-        scale(ranges.impact_position_m),
-    ];
-    let x: Vec<[f64; 4]> = (0..n)
-        .map(|k| {
-            [
-                p.length_mm[k] * s[0],
-                p.depth_mm[k] * s[1],
-                p.curvature_mm[k] * s[2],
-                p.impact_position_m[k] * s[3],
-            ]
-        })
-        .collect();
-    let step = (n / anchors.min(n)).max(1);
-    use rayon::prelude::*;
-    (0..n)
-        .step_by(step)
-        .take(anchors)
-        .collect::<Vec<_>>()
-        .par_iter()
-        .map(|&a| {
-            let best = (0..n)
-                .filter(|&b| b != a)
-                .map(|b| (b, (0..4).map(|j| (x[a][j] - x[b][j]).powi(2)).sum::<f64>()))
-                .fold(
-                    (usize::MAX, f64::MAX),
-                    |acc, (b, d)| if d < acc.1 { (b, d) } else { acc },
-                );
-            (a, best.0)
-        })
-        .collect()
 }
 
 /// The human verdict and the maintenance hint (rule stated in the text).

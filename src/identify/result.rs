@@ -39,15 +39,17 @@ pub struct CandidatePoint {
     pub measured_kn: f64,
     /// Order in which PIP selection found it within its series (0 and 1: the end points).
     pub pip_order: usize,
-    /// Entropy of the bank's predictions at this point (bits), bin width = threshold width.
+    /// Entropy of the bank's predictions at this point (bits); bin width = threshold width
+    /// plus twice the typical bank-resolution widening.
     pub entropy_bits: f64,
     /// Lower falsification threshold on `prediction − measurement` (kN), for the final number
     /// of comparison points (Šídák).
     pub threshold_low_kn: f64,
     /// Upper threshold (kN).
     pub threshold_high_kn: f64,
-    /// Population-sampling bound included in the thresholds (kN).
-    pub sampling_kn: f64,
+    /// Typical bank-resolution widening at this point: κ × the median spread of predictions
+    /// between neighbouring instances (kN). Each instance is judged with its own spread.
+    pub resolution_kn: f64,
 }
 
 /// Joint entropy as points are added greedily, for one set of sensors (paper Fig. 16).

@@ -244,13 +244,12 @@ pub struct IdentificationParams {
     pub random_subsets: usize,
     /// Seed of the Monte Carlo draw and of the random subsets.
     pub seed: u64,
-    /// Population-sampling uncertainty: the bank holds a finite sample of the parameter space,
-    /// so the instance nearest the truth predicts differently from the truth. At each point the
-    /// prediction differences between 256 anchor instances and their nearest neighbours in
-    /// parameter space are taken at the same per-point probability as the other sources
-    /// (`φ^(1/m)`) and added as a symmetric bound to the thresholds. `false`: the paper's
-    /// Table 2 alone.
-    pub population_sampling: bool,
+    /// Bank resolution κ: every instance is judged for the cell of parameter space it stands
+    /// for, its thresholds widened by κ × the largest prediction difference to its 8 nearest
+    /// neighbours (see `identify::cells`; 0.5 is half-way to the farthest neighbour), and the
+    /// candidate ranges are the union of the surviving cells. 0: the paper's thresholds alone,
+    /// as if the truth were one of the instances.
+    pub bank_resolution: f64,
     /// Maintenance rule: upper bound of the fresh-flat length L0 (mm) from which the wheelset
     /// is to be removed from service within 24 hours.
     pub urgent_l0_mm: f64,
@@ -279,7 +278,7 @@ impl Default for IdentificationParams {
             monte_carlo_samples: 20_000,
             random_subsets: 2000,
             seed: 1,
-            population_sampling: false,
+            bank_resolution: 0.5,
             urgent_l0_mm: 40.0,
             inspect_l0_mm: 25.0,
             uncertainty: vec![
@@ -490,9 +489,11 @@ impl Calibration {
     /// The model part of the document (everything but `[identification]`) as canonical TOML:
     /// what determines simulated values, and so a bank's identity.
     pub fn model_toml_string(&self) -> String {
-        let mut model = self.clone();
-        model.identification = IdentificationParams::default();
-        toml::to_string_pretty(&model).expect("calibration always serialises")
+        // The `[identification]` table is left out altogether, so that neither its values nor
+        // its defaults (which change between versions) enter a bank's identity.
+        let mut model = toml::Table::try_from(self).expect("calibration always serialises");
+        model.remove("identification");
+        toml::to_string_pretty(&model).expect("a TOML table always serialises")
     }
 
     /// The document as TOML, with a header comment.
@@ -666,6 +667,7 @@ impl Calibration {
             ));
         }
         non_negative("identification.alpha_fraction", id.alpha_fraction)?;
+        non_negative("identification.bank_resolution", id.bank_resolution)?;
 
         if id.monte_carlo_samples < 1000 {
             return Err(invalid(

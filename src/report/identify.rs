@@ -1923,7 +1923,7 @@ fn render_html(id: &Identification, figures: &[(Figure, String)]) -> Result<Stri
                     fmt_num(c.entropy_bits, 2),
                     fmt_num(joint, 2),
                     fmt_range([c.threshold_low_kn, c.threshold_high_kn], 2),
-                    fmt_num(c.sampling_kn, 2),
+                    fmt_num(c.resolution_kn, 2),
                     fmt_range(
                         [c.measured_kn + c.threshold_low_kn, c.measured_kn + c.threshold_high_kn],
                         2
@@ -2171,7 +2171,7 @@ mod tests {
                     entropy_bits: entropy,
                     threshold_low_kn: q(-9.0 - 0.04 * ser.values_kn[i]),
                     threshold_high_kn: q(7.0 + 0.03 * ser.values_kn[i]),
-                    sampling_kn: q(0.4 + 0.01 * ser.values_kn[i]),
+                    resolution_kn: q(0.4 + 0.01 * ser.values_kn[i]),
                 });
             }
         }
@@ -2529,7 +2529,7 @@ mod tests {
                     },
                     threshold_low_kn: q(-9.0 - 0.04 * m),
                     threshold_high_kn: q(7.0 + 0.03 * m),
-                    sampling_kn: 0.5,
+                    resolution_kn: 0.5,
                 });
             }
         }
