@@ -374,7 +374,7 @@ impl Identifier {
         let selection = greedy_joint_entropy(&binned, &all, alpha, m1);
         let m_final = selection.order.len().max(1);
         let p_final = s.phi.powf(1.0 / m_final as f64);
-        lap("entropy selection", &mut timings);
+        lap("greedy 2", &mut timings);
 
         let thresholds: Vec<(f64, f64)> = (0..measured.len())
             .map(|i| self.uncertainty.thresholds(measured[i], p_final))

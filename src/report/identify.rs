@@ -1900,7 +1900,7 @@ fn render_html(id: &Identification, figures: &[(Figure, String)]) -> Result<Stri
         "<table>\n<thead><tr><th class=\"num\">Order</th><th class=\"num\">PIP</th><th>Sensor</th>\
          <th class=\"num\">Time (s)</th><th class=\"num\">Measured (kN)</th><th class=\"num\">Entropy (bits)</th>\
          <th class=\"num\">Joint entropy (bits)</th><th class=\"num\">Thresholds (kN)</th>\
-         <th class=\"num\">of which sampling (kN)</th><th class=\"num\">Admissible predictions (kN)</th></tr></thead>\n<tbody>"
+         <th class=\"num\">Typical cell widening ± (kN)</th><th class=\"num\">Admissible predictions before widening (kN)</th></tr></thead>\n<tbody>"
     )?;
     for (k, &ci) in id.eip.iter().enumerate() {
         let joint = id
