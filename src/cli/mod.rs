@@ -523,18 +523,7 @@ fn cmd_demo(out: &Path, bank_dir: &Path, instances: usize) -> Result<()> {
             curves: true,
         },
     )?;
-    let report = out.join("identification");
-    let files = crate::report::identify::write_identification_report(&id, &report)
-        .with_context(|| format!("cannot write the report in {}", report.display()))?;
-    print_identification(&id);
-    print!("{}", comparison_table(&id, Some(&syn.truth)));
-    println!(
-        "wrote {} and {} ({} figures)",
-        files.json.display(),
-        files.html.display(),
-        files.figures.len()
-    );
-    Ok(())
+    report_identification(&id, &out.join("identification"), Some(&syn.truth))
 }
 
 /// The bank arguments of the demo, parsed like `wheelflat bank generate`'s.
@@ -898,10 +887,19 @@ fn cmd_identify(a: &IdentifyArgs) -> Result<()> {
         curves: !a.no_baselines,
     };
     let id = identifier.identify(&m, a.input.sensors.as_deref(), extras)?;
-    let files = crate::report::identify::write_identification_report(&id, &a.out)
-        .with_context(|| format!("cannot write the report in {}", a.out.display()))?;
-    print_identification(&id);
-    print!("{}", comparison_table(&id, None));
+    report_identification(&id, &a.out, None)
+}
+
+/// Writes an identification's report into `dir` and prints its summary and comparison table.
+fn report_identification(
+    id: &Identification,
+    dir: &Path,
+    truth: Option<&identify::synth::Truth>,
+) -> Result<()> {
+    let files = crate::report::identify::write_identification_report(id, dir)
+        .with_context(|| format!("cannot write the report in {}", dir.display()))?;
+    print_identification(id);
+    print!("{}", comparison_table(id, truth));
     println!(
         "wrote {} and {} ({} figures)",
         files.json.display(),
