@@ -13,6 +13,7 @@
 #![deny(clippy::float_cmp)]
 
 pub mod atomic;
+pub mod audit;
 pub mod bank;
 pub mod cli;
 pub mod identify;

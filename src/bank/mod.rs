@@ -15,7 +15,7 @@ pub mod writer;
 
 pub use generate::{generate, GenerateObserver, GenerateOptions, Outcome, Quiet};
 pub use population::{FlatSample, Population};
-pub use reader::{verify, Bank, Parameters, VerifyProblem};
+pub use reader::{verify, Bank, Parameters, StoredInstance, VerifyProblem};
 pub use schema::{BankMetadata, Manifest};
 pub use writer::{Codec, StorageFormat, ValueEncoding};
 

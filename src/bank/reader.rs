@@ -13,7 +13,7 @@ use arrow_array::{Array, Float32Array, Float64Array, UInt32Array};
 use bytes::Bytes;
 use parquet::arrow::arrow_reader::{
     ArrowReaderMetadata, ArrowReaderOptions, ParquetRecordBatchReader,
-    ParquetRecordBatchReaderBuilder,
+    ParquetRecordBatchReaderBuilder, RowSelection, RowSelector,
 };
 use parquet::arrow::ProjectionMask;
 use rayon::prelude::*;
@@ -49,6 +49,17 @@ pub struct Bank {
     manifest: Manifest,
     metadata: BankMetadata,
     files: Vec<ShardFile>,
+}
+
+/// One instance as stored: its parameter columns and its force series.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StoredInstance {
+    /// Instance number.
+    pub instance: u32,
+    /// L (mm), d (mm), c (mm), X_p (m), L0 (mm), as stored.
+    pub parameters: [f64; 5],
+    /// Force samples (kN) per sensor axis, in the bank's axis order.
+    pub forces_kn: Vec<Vec<f32>>,
 }
 
 /// The parameter columns of every instance.
@@ -382,6 +393,94 @@ impl Bank {
             }
         }
         Ok(())
+    }
+
+    /// Reads one whole instance (row `instance`: rows are stored in instance order), decoding
+    /// only that row of its shard file.
+    pub fn read_instance(&self, instance: usize) -> Result<StoredInstance, BankError> {
+        let n = self.instances();
+        if instance >= n {
+            return Err(BankError::Invalid(format!(
+                "instance {instance} is not in the bank (it holds instances 0 to {})",
+                n.saturating_sub(1)
+            )));
+        }
+        let mut row = instance;
+        let file = self
+            .files
+            .iter()
+            .find(|f| {
+                if row < f.rows {
+                    true
+                } else {
+                    row -= f.rows;
+                    false
+                }
+            })
+            .expect("the row is within the files' rows");
+        let corrupt = |message: String| BankError::Corrupt {
+            path: file.path.clone(),
+            message,
+        };
+        let reader = ParquetRecordBatchReaderBuilder::new_with_metadata(
+            file.bytes.clone(),
+            file.meta.clone(),
+        )
+        .with_row_selection(RowSelection::from(vec![
+            RowSelector::skip(row),
+            RowSelector::select(1),
+        ]))
+        .build()
+        .map_err(parquet_err(&file.path))?;
+        let mut batches = Vec::new();
+        for batch in reader {
+            batches.push(batch.map_err(|e| corrupt(e.to_string()))?);
+        }
+        let batch = match batches.as_slice() {
+            [b] if b.num_rows() == 1 => b,
+            _ => return Err(corrupt(format!("row {row} could not be read"))),
+        };
+        let number = batch
+            .column(0)
+            .as_any()
+            .downcast_ref::<UInt32Array>()
+            .map(|a| a.value(0))
+            .ok_or_else(|| corrupt("the instance column is not u32".into()))?;
+        if number as usize != instance {
+            return Err(corrupt(format!(
+                "row {row} holds instance {number}, expected {instance}"
+            )));
+        }
+        let mut parameters = [0.0; 5];
+        for (k, p) in parameters.iter_mut().enumerate() {
+            *p = batch
+                .column(1 + k)
+                .as_any()
+                .downcast_ref::<Float64Array>()
+                .map(|a| a.value(0))
+                .ok_or_else(|| corrupt(format!("`{}` is not f64", PARAMETER_COLUMNS[k])))?;
+        }
+        let mut col = 1 + PARAMETER_COLUMNS.len();
+        let mut forces_kn = Vec::with_capacity(self.metadata.sensors.len());
+        for axis in &self.metadata.sensors {
+            let mut v = Vec::with_capacity(axis.samples);
+            for _ in 0..axis.samples {
+                let value = batch
+                    .column(col)
+                    .as_any()
+                    .downcast_ref::<Float32Array>()
+                    .map(|a| a.value(0))
+                    .ok_or_else(|| corrupt(format!("column {col} is not a force sample")))?;
+                v.push(value);
+                col += 1;
+            }
+            forces_kn.push(v);
+        }
+        Ok(StoredInstance {
+            instance: number,
+            parameters,
+            forces_kn,
+        })
     }
 
     /// Reads the parameter columns of every instance.

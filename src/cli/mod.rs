@@ -1,6 +1,7 @@
 //! The `wheelflat` command line: a thin layer that parses arguments, reads and writes files,
 //! and calls the library. Errors carry context naming the file and value (anyhow).
 
+use crate::audit;
 use crate::bank::{
     self, Codec, GenerateObserver, GenerateOptions, Outcome, StorageFormat, ValueEncoding,
 };
@@ -46,6 +47,9 @@ enum Command {
     Identify(IdentifyArgs),
     /// Print the paper-style comparison of the method with its baselines for one measurement.
     Compare(CompareArgs),
+    /// Audit one model instance: re-simulate it and compare with the bank; with a measurement,
+    /// show why it is kept or falsified.
+    Audit(AuditArgs),
     /// Run the main job on built-in defaults: simulate, build the bank on first use (with
     /// progress), make a synthetic field measurement, identify the flat, write the report.
     Demo {
@@ -78,6 +82,19 @@ enum BankCommand {
     Verify {
         /// Bank directory.
         dir: PathBuf,
+    },
+    /// Re-simulate K instances spread through the bank and report any that no longer match
+    /// (code or calibration drifted since the bank was built). Fails on drift.
+    Audit {
+        /// Bank directory.
+        dir: PathBuf,
+        /// Instances to re-simulate, spread evenly through the bank.
+        #[arg(long, default_value_t = 32)]
+        sample: usize,
+        /// Re-simulate with this calibration instead of the one stored in the bank (shows
+        /// whether a changed track calibration changes the predictions).
+        #[arg(long)]
+        calibration: Option<PathBuf>,
     },
 }
 
@@ -181,6 +198,29 @@ struct IdentifyArgs {
 }
 
 #[derive(Debug, Args)]
+struct AuditArgs {
+    /// Bank directory.
+    #[arg(long, default_value = "bank")]
+    bank: PathBuf,
+    /// Instance number.
+    #[arg(long)]
+    instance: usize,
+    /// Measurement CSV to judge the instance against (identified first, as `identify` does).
+    #[arg(long)]
+    measured: Option<PathBuf>,
+    /// Only these sensors of the measurement, e.g. `rps1,rps2`.
+    #[arg(long, value_delimiter = ',', requires = "measured")]
+    sensors: Option<Vec<String>>,
+    /// Identification settings and uncertainty table from this calibration file instead of
+    /// the bank's.
+    #[arg(long, requires = "measured")]
+    calibration: Option<PathBuf>,
+    /// Folder for `audit.json` and `audit.png`.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
 struct CompareArgs {
     #[command(flatten)]
     input: MeasuredArgs,
@@ -245,10 +285,16 @@ pub fn main() -> ExitCode {
             BankCommand::Merge(a) => cmd_bank_generate(&a, false),
             BankCommand::Info { dir } => cmd_bank_info(&dir),
             BankCommand::Verify { dir } => cmd_bank_verify(&dir),
+            BankCommand::Audit {
+                dir,
+                sample,
+                calibration,
+            } => cmd_bank_audit(&dir, sample, calibration.as_deref()),
         },
         Command::Synth(a) => cmd_synth(&a),
         Command::Identify(a) => cmd_identify(&a),
         Command::Compare(a) => cmd_compare(&a),
+        Command::Audit(a) => cmd_audit(&a),
         Command::Demo {
             out,
             bank,
@@ -754,6 +800,241 @@ fn cmd_bank_verify(dir: &Path) -> Result<()> {
         problems.len(),
         manifest.files.len()
     )
+}
+
+fn cmd_bank_audit(dir: &Path, sample: usize, calibration: Option<&Path>) -> Result<()> {
+    use rayon::prelude::*;
+    let b = bank::Bank::open(dir).with_context(|| format!("cannot open bank {}", dir.display()))?;
+    let against = match calibration {
+        Some(p) => Some(load_calibration(Some(p))?),
+        None => None,
+    };
+    let what = match calibration {
+        Some(p) => format!("the calibration in {}", p.display()),
+        None => "the calibration stored in the bank".into(),
+    };
+    let resim = audit::Resimulator::new(&b, against)?;
+    let picks = audit::sample_instances(b.instances(), sample);
+    println!(
+        "bank {} ({} instances, bank id {}): re-simulating {} instances with {what}",
+        dir.display(),
+        b.instances(),
+        b.metadata().bank_id,
+        picks.len()
+    );
+    let results: Vec<audit::Resimulation> = picks
+        .par_iter()
+        .map_init(
+            || resim.workspace(),
+            |ws, &i| -> Result<audit::Resimulation> {
+                let stored = b.read_instance(i)?;
+                let r = resim.run(&stored, ws)?;
+                Ok(audit::compare(&stored, &r, &b))
+            },
+        )
+        .collect::<Result<_>>()?;
+    let drifted: Vec<&audit::Resimulation> = results.iter().filter(|r| !r.identical).collect();
+    for r in &results {
+        println!("  instance {:>6}: {}", r.instance, r.verdict());
+    }
+    if drifted.is_empty() {
+        println!(
+            "no drift: all {} re-simulated instances match the bank bit for bit",
+            results.len()
+        );
+        return Ok(());
+    }
+    let worst = drifted.iter().map(|r| r.max_abs_kn).fold(0.0f64, f64::max);
+    anyhow::bail!(
+        "DRIFT: {} of {} re-simulated instances differ from the bank (max |Δ| {worst:.4} kN). The bank no longer matches this code and {what}: find the change, or regenerate the bank (`wheelflat bank generate`)",
+        drifted.len(),
+        results.len()
+    )
+}
+
+fn cmd_audit(a: &AuditArgs) -> Result<()> {
+    let b = bank::Bank::open(&a.bank)
+        .with_context(|| format!("cannot open bank {}", a.bank.display()))?;
+    let stored = b.read_instance(a.instance)?;
+    let [l, d, c, xp, l0] = stored.parameters;
+    println!(
+        "instance {}: L {l:.2} mm, d {d:.4} mm, c {c:.4} mm, X_p {xp:.4} m, L0 {l0:.1} mm",
+        stored.instance
+    );
+    let resim = audit::Resimulator::new(&b, None)?;
+    let series = resim.run(&stored, &mut resim.workspace())?;
+    let comparison = audit::compare(&stored, &series, &b);
+    println!(
+        "re-simulated with the bank's stored calibration (bank id {}): {}",
+        b.metadata().bank_id,
+        comparison.verdict()
+    );
+    if !comparison.identical {
+        println!("  the code or its calibration handling changed since this bank was built");
+    }
+    let mut check = None;
+    let mut identification = None;
+    if let Some(measured) = &a.measured {
+        let input = MeasuredArgs {
+            bank: a.bank.clone(),
+            measured: measured.clone(),
+            sensors: a.sensors.clone(),
+            calibration: a.calibration.clone(),
+        };
+        let (identifier, m) = open_identifier(&input)?;
+        let id = identifier.identify(
+            &m,
+            a.sensors.as_deref(),
+            Extras {
+                baselines: false,
+                curves: false,
+            },
+        )?;
+        let c = audit::check_against(&identifier, &id, &stored)?;
+        print!("{}", audit_table(&c));
+        check = Some(c);
+        identification = Some(id);
+    }
+    if let Some(out) = &a.out {
+        std::fs::create_dir_all(out)
+            .with_context(|| format!("cannot create output folder {}", out.display()))?;
+        let json = serde_json::json!({
+            "instance": stored.instance,
+            "parameters": {
+                "length_mm": l, "depth_mm": d, "curvature_mm": c,
+                "impact_position_m": xp, "l0_mm": l0,
+            },
+            "bank_id": b.metadata().bank_id,
+            "resimulation": comparison,
+            "measured": check,
+        });
+        let json_path = out.join("audit.json");
+        write_atomically(
+            &json_path,
+            serde_json::to_string_pretty(&json)
+                .expect("audit serialises")
+                .as_bytes(),
+        )?;
+        let png = out.join("audit.png");
+        let axes = &b.metadata().sensors;
+        let panels: Vec<crate::report::audit::AuditPanel> = axes
+            .iter()
+            .enumerate()
+            .filter_map(|(ai, axis)| {
+                let measured = match &identification {
+                    Some(id) => Some(
+                        id.series
+                            .iter()
+                            .find(|s| s.sensor == axis.name)?
+                            .values_kn
+                            .as_slice(),
+                    ),
+                    None => None,
+                };
+                let points = check
+                    .iter()
+                    .flat_map(|c| c.points.iter())
+                    .filter(|p| p.sensor == axis.name)
+                    .map(|p| crate::report::audit::BandPoint {
+                        time_s: p.time_s,
+                        predicted_kn: p.predicted_kn,
+                        band_kn: [
+                            p.measured_kn + p.threshold_kn[0] - p.widening_kn,
+                            p.measured_kn + p.threshold_kn[1] + p.widening_kn,
+                        ],
+                        falsifies: p.outside_by_kn > 0.0,
+                    })
+                    .collect();
+                Some(crate::report::audit::AuditPanel {
+                    sensor: &axis.name,
+                    t0_s: axis.t0_s,
+                    rate_hz: axis.sample_rate_hz,
+                    stored: &stored.forces_kn[ai],
+                    resimulated: &series[ai],
+                    measured,
+                    points,
+                })
+            })
+            .collect();
+        let verdict = match &check {
+            Some(c) if c.kept => "kept",
+            Some(_) => "falsified",
+            None => "",
+        };
+        crate::report::audit::draw_audit(
+            &format!(
+                "instance {} (L {l:.1} mm, d {d:.3} mm, c {c:.3} mm, X_p {xp:.3} m) {verdict}",
+                stored.instance
+            ),
+            &panels,
+            &png,
+        )?;
+        println!("wrote {} and {}", json_path.display(), png.display());
+    }
+    Ok(())
+}
+
+/// The verdict of an instance against a measurement, with its points, falsifying ones first.
+fn audit_table(c: &audit::MeasuredCheck) -> String {
+    let mut s = if c.kept {
+        let margin = c
+            .points
+            .iter()
+            .map(|p| -p.outside_by_kn)
+            .fold(f64::MAX, f64::min);
+        format!(
+            "against {}: KEPT — inside the admissible residual at all {} comparison points (closest margin {margin:.2} kN); {} the candidate model set\n",
+            c.measurement,
+            c.points.len(),
+            if c.in_cms { "member of" } else { "NOT in" }
+        )
+    } else {
+        format!(
+            "against {}: FALSIFIED at {} of {} comparison points (per-point probability {:.5}); {} the candidate model set\n",
+            c.measurement,
+            c.falsified_by.len(),
+            c.points.len(),
+            c.per_point_probability,
+            if c.in_cms { "yet member of" } else { "not in" }
+        )
+    };
+    s += &format!(
+        "  {:<5} {:<6} {:>9} {:>10} {:>10} {:>9} {:>22} {:>9}  {}\n",
+        "EIP",
+        "sensor",
+        "time (s)",
+        "measured",
+        "predicted",
+        "residual",
+        "admissible residual",
+        "outside",
+        "verdict"
+    );
+    let mut order: Vec<usize> = c.falsified_by.clone();
+    order.extend((0..c.points.len()).filter(|i| !c.falsified_by.contains(i)));
+    for i in order {
+        let p = &c.points[i];
+        s += &format!(
+            "  {:<5} {:<6} {:>9.4} {:>10.2} {:>10.2} {:>+9.2} {:>22} {:>+9.2}  {}\n",
+            p.order,
+            p.sensor,
+            p.time_s,
+            p.measured_kn,
+            p.predicted_kn,
+            p.residual_kn,
+            format!(
+                "[{:+.2}, {:+.2}] ± {:.2}",
+                p.threshold_kn[0], p.threshold_kn[1], p.widening_kn
+            ),
+            p.outside_by_kn,
+            if p.outside_by_kn > 0.0 {
+                "falsifies"
+            } else {
+                "inside"
+            }
+        );
+    }
+    s
 }
 
 fn cmd_synth(a: &SynthArgs) -> Result<()> {

@@ -1,5 +1,6 @@
 //! Plots and tables for people.
 
+pub mod audit;
 pub mod identify;
 pub mod plot;
 

@@ -1,0 +1,371 @@
+//! Auditing model instances: re-simulate one with the calibration stored in the bank and
+//! compare with its stored series sample by sample; with a measurement, show every comparison
+//! point's residual against its thresholds and which points falsify it, ranked.
+//!
+//! Identical series are expected while code and calibration are unchanged: the bank is
+//! written as f32 kN from the same simulator, so any difference, however small, is reported
+//! as drift.
+
+use crate::bank::{Bank, BankError, StoredInstance};
+use crate::identify::{Identification, Identifier};
+use crate::model::{CheckedCalibration, Flat, Record, SimError, Simulator, Workspace};
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// Errors of an audit.
+#[derive(Debug, Error)]
+pub enum AuditError {
+    /// The bank could not be read.
+    #[error(transparent)]
+    Bank(#[from] BankError),
+    /// The instance could not be simulated.
+    #[error("instance {instance}: {source}")]
+    Simulation {
+        /// The instance.
+        instance: u32,
+        /// The cause.
+        #[source]
+        source: SimError,
+    },
+    /// The stored parameters do not make a flat.
+    #[error("instance {instance}: stored parameters are not a valid flat: {message}")]
+    Parameters {
+        /// The instance.
+        instance: u32,
+        /// Why.
+        message: String,
+    },
+}
+
+/// How one sensor's re-simulated series compares with the stored one.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SensorDiff {
+    /// Sensor.
+    pub sensor: String,
+    /// Largest |re-simulated − stored| (kN).
+    pub max_abs_kn: f64,
+    /// Sample where it is largest.
+    pub worst_sample: usize,
+    /// RMS difference (kN).
+    pub rms_kn: f64,
+    /// Samples that differ at all.
+    pub differing_samples: usize,
+    /// Samples compared.
+    pub samples: usize,
+}
+
+/// Re-simulated against stored, over all sensors.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Resimulation {
+    /// Instance number.
+    pub instance: u32,
+    /// Bit-for-bit identical.
+    pub identical: bool,
+    /// Largest |difference| over all sensors (kN).
+    pub max_abs_kn: f64,
+    /// RMS difference over all samples (kN).
+    pub rms_kn: f64,
+    /// Per sensor.
+    pub sensors: Vec<SensorDiff>,
+}
+
+impl Resimulation {
+    /// One line for people.
+    pub fn verdict(&self) -> String {
+        let samples: usize = self.sensors.iter().map(|s| s.samples).sum();
+        if self.identical {
+            format!(
+                "identical to the stored series, bit for bit ({} sensors, {samples} samples)",
+                self.sensors.len()
+            )
+        } else {
+            let worst = self
+                .sensors
+                .iter()
+                .max_by(|a, b| a.max_abs_kn.total_cmp(&b.max_abs_kn))
+                .expect("a bank has sensors");
+            let differing: usize = self.sensors.iter().map(|s| s.differing_samples).sum();
+            format!(
+                "DIFFERS from the stored series: max |Δ| {:.4} kN at {} sample {}, RMS {:.4} kN, {differing} of {samples} samples differ",
+                self.max_abs_kn, worst.sensor, worst.worst_sample, self.rms_kn
+            )
+        }
+    }
+}
+
+/// The re-simulator of a bank's instances (the simulator is assembled once).
+pub struct Resimulator<'a> {
+    bank: &'a Bank,
+    cal: CheckedCalibration,
+    sim: Simulator,
+}
+
+impl<'a> Resimulator<'a> {
+    /// With the calibration stored in the bank, or `calibration` to audit against another
+    /// (a changed track calibration shows up as drift).
+    pub fn new(
+        bank: &'a Bank,
+        calibration: Option<CheckedCalibration>,
+    ) -> Result<Resimulator<'a>, AuditError> {
+        let cal = match calibration {
+            Some(c) => c,
+            None => bank.metadata().calibration.clone().check().map_err(|e| {
+                BankError::Invalid(format!("the bank's stored calibration is invalid: {e}"))
+            })?,
+        };
+        let sim = Simulator::new(&cal).map_err(|source| AuditError::Simulation {
+            instance: 0,
+            source,
+        })?;
+        Ok(Resimulator { bank, cal, sim })
+    }
+
+    /// A workspace for [`Resimulator::run`] (one per thread).
+    pub fn workspace(&self) -> Workspace {
+        self.sim.workspace()
+    }
+
+    /// Re-simulates a stored instance: its series (kN, as the bank stores them) per sensor.
+    pub fn run(
+        &self,
+        stored: &StoredInstance,
+        ws: &mut Workspace,
+    ) -> Result<Vec<Vec<f32>>, AuditError> {
+        let [l, d, c, xp, _] = stored.parameters;
+        let flat = Flat::from_mm(l, d, c, xp).map_err(|e| AuditError::Parameters {
+            instance: stored.instance,
+            message: e.to_string(),
+        })?;
+        let resp = self
+            .sim
+            .run_with(Some(&flat), Record::default(), ws)
+            .map_err(|source| AuditError::Simulation {
+                instance: stored.instance,
+                source,
+            })?;
+        // The bank's sensors by name, in the calibration simulated (they may differ when
+        // auditing against another calibration).
+        let names: Vec<&str> = self
+            .cal
+            .sensors
+            .pad
+            .iter()
+            .map(|p| p.name.as_str())
+            .collect();
+        Ok(self
+            .bank
+            .metadata()
+            .sensors
+            .iter()
+            .map(|a| match names.iter().position(|n| *n == a.name) {
+                Some(si) if a.first_sample >= resp.first_sample => {
+                    let available = resp.pad_force_n[si].len() + resp.first_sample;
+                    (a.first_sample..a.first_sample + a.samples)
+                        .map(|g| {
+                            if g < available {
+                                (resp.pad_force_n[si][g - resp.first_sample] / 1e3) as f32
+                            } else {
+                                f32::NAN
+                            }
+                        })
+                        .collect()
+                }
+                _ => vec![f32::NAN; a.samples],
+            })
+            .collect())
+    }
+}
+
+/// Compares re-simulated with stored series.
+pub fn compare(stored: &StoredInstance, resim: &[Vec<f32>], bank: &Bank) -> Resimulation {
+    let mut sensors = Vec::new();
+    let (mut sum2, mut count, mut max_all) = (0.0f64, 0usize, 0.0f64);
+    let mut identical = true;
+    for ((axis, s), r) in bank
+        .metadata()
+        .sensors
+        .iter()
+        .zip(&stored.forces_kn)
+        .zip(resim)
+    {
+        let (mut max, mut worst, mut s2, mut differ) = (0.0f64, 0usize, 0.0f64, 0usize);
+        for (k, (&a, &b)) in s.iter().zip(r).enumerate() {
+            if a.to_bits() != b.to_bits() {
+                differ += 1;
+                identical = false;
+            }
+            let d = (b as f64 - a as f64).abs();
+            // A missing sample (NaN) counts as infinitely far.
+            let d = if d.is_nan() { f64::INFINITY } else { d };
+            if d > max {
+                max = d;
+                worst = k;
+            }
+            s2 += if d.is_finite() { d * d } else { 0.0 };
+        }
+        sum2 += s2;
+        count += s.len();
+        max_all = max_all.max(max);
+        sensors.push(SensorDiff {
+            sensor: axis.name.clone(),
+            max_abs_kn: max,
+            worst_sample: worst,
+            rms_kn: (s2 / s.len().max(1) as f64).sqrt(),
+            differing_samples: differ,
+            samples: s.len(),
+        });
+    }
+    Resimulation {
+        instance: stored.instance,
+        identical,
+        max_abs_kn: max_all,
+        rms_kn: (sum2 / count.max(1) as f64).sqrt(),
+        sensors,
+    }
+}
+
+/// One comparison point, seen from one instance.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PointCheck {
+    /// Order among the EIP (1 = first chosen).
+    pub order: usize,
+    /// Sensor.
+    pub sensor: String,
+    /// Sample within the sensor's window.
+    pub sample: usize,
+    /// Bank time (s).
+    pub time_s: f64,
+    /// Measured force (kN).
+    pub measured_kn: f64,
+    /// The instance's stored prediction (kN).
+    pub predicted_kn: f64,
+    /// Prediction − measurement (kN).
+    pub residual_kn: f64,
+    /// Thresholds on the residual (kN).
+    pub threshold_kn: [f64; 2],
+    /// The instance's own cell widening (kN; see `identify::cells`).
+    pub widening_kn: f64,
+    /// How far the residual lies outside the widened thresholds (kN; ≤ 0: inside, by that
+    /// margin).
+    pub outside_by_kn: f64,
+}
+
+/// An instance against a measurement.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MeasuredCheck {
+    /// The measurement file.
+    pub measurement: String,
+    /// Kept (inside the widened thresholds at every point).
+    pub kept: bool,
+    /// Member of the identification's candidate model set (agrees with `kept`).
+    pub in_cms: bool,
+    /// Every comparison point, in EIP order.
+    pub points: Vec<PointCheck>,
+    /// The points that falsify it, most outside first (indices into `points`).
+    pub falsified_by: Vec<usize>,
+    /// The identification's per-point probability.
+    pub per_point_probability: f64,
+}
+
+/// Checks stored instance `stored` against the identification `id` made by `identifier`.
+pub fn check_against(
+    identifier: &Identifier,
+    id: &Identification,
+    stored: &StoredInstance,
+) -> Result<MeasuredCheck, AuditError> {
+    let bank = identifier.bank();
+    let axes = &bank.metadata().sensors;
+    let mut points = Vec::with_capacity(id.eip.len());
+    // The neighbours' predictions at the EIP give the instance's own widening.
+    let cols: Vec<(usize, usize)> = id
+        .eip
+        .iter()
+        .map(|&e| {
+            let c = &id.candidates[e];
+            let name = &id.series[c.series].sensor;
+            let axis = axes
+                .iter()
+                .position(|a| &a.name == name)
+                .expect("identified sensors are the bank's");
+            (axis, c.sample)
+        })
+        .collect();
+    let columns = bank.read_columns(
+        &cols
+            .iter()
+            .map(|&(a, k)| bank.sample_index(a, k))
+            .collect::<Vec<_>>(),
+    )?;
+    let i = stored.instance as usize;
+    for (order, (&e, (&(axis, k), col))) in id.eip.iter().zip(cols.iter().zip(&columns)).enumerate()
+    {
+        let c = &id.candidates[e];
+        let predicted = stored.forces_kn[axis][k] as f64;
+        let residual = predicted - c.measured_kn;
+        let widening = identifier
+            .resolution()
+            .map_or(0.0, |r| r.kappa * r.cells.spread(col, i));
+        let (lo, hi) = (
+            c.threshold_low_kn - widening,
+            c.threshold_high_kn + widening,
+        );
+        let outside = if residual > hi {
+            residual - hi
+        } else if residual < lo {
+            lo - residual
+        } else {
+            -(residual - lo).min(hi - residual)
+        };
+        points.push(PointCheck {
+            order: order + 1,
+            sensor: axes[axis].name.clone(),
+            sample: k,
+            time_s: c.time_s,
+            measured_kn: c.measured_kn,
+            predicted_kn: predicted,
+            residual_kn: residual,
+            threshold_kn: [c.threshold_low_kn, c.threshold_high_kn],
+            widening_kn: widening,
+            outside_by_kn: outside,
+        });
+    }
+    let mut falsified_by: Vec<usize> = (0..points.len())
+        .filter(|&p| points[p].outside_by_kn > 0.0)
+        .collect();
+    falsified_by.sort_by(|&a, &b| {
+        points[b]
+            .outside_by_kn
+            .total_cmp(&points[a].outside_by_kn)
+            .then(a.cmp(&b))
+    });
+    Ok(MeasuredCheck {
+        measurement: id.measurement.clone(),
+        kept: falsified_by.is_empty(),
+        in_cms: id.cms.iter().any(|m| m.instance == stored.instance),
+        points,
+        falsified_by,
+        per_point_probability: id.per_point_probability,
+    })
+}
+
+/// The instances `bank audit --sample K` re-simulates: K spread evenly through the bank
+/// (the middle of each of K equal blocks), so every shard and every part of the population
+/// is visited.
+pub fn sample_instances(n: usize, k: usize) -> Vec<usize> {
+    let k = k.clamp(1, n.max(1));
+    (0..k).map(|j| ((2 * j + 1) * n) / (2 * k)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn samples_are_spread_and_distinct() {
+        assert_eq!(sample_instances(100, 4), vec![12, 37, 62, 87]);
+        assert_eq!(sample_instances(3, 10), vec![0, 1, 2]);
+        let s = sample_instances(50_000, 16);
+        assert!(s.windows(2).all(|w| w[1] > w[0]));
+        assert!(*s.last().unwrap() < 50_000);
+    }
+}
