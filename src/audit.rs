@@ -8,7 +8,9 @@
 
 use crate::bank::{Bank, BankError, StoredInstance};
 use crate::identify::{Identification, Identifier};
-use crate::model::{CheckedCalibration, Flat, Record, SimError, Simulator, Workspace};
+use crate::model::{
+    CheckedCalibration, Flat, Record, SimError, Simulator, WheelPosition, Workspace,
+};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -131,11 +133,18 @@ impl<'a> Resimulator<'a> {
         stored: &StoredInstance,
         ws: &mut Workspace,
     ) -> Result<Vec<Vec<f32>>, AuditError> {
-        let [l, d, c, xp, _] = stored.parameters;
-        let flat = Flat::from_mm(l, d, c, xp).map_err(|e| AuditError::Parameters {
-            instance: stored.instance,
-            message: e.to_string(),
-        })?;
+        let [l, d, c, xp, _, wheel] = stored.parameters;
+        let wheel = if wheel < 0.5 {
+            WheelPosition::Leading
+        } else {
+            WheelPosition::Trailing
+        };
+        let flat = Flat::from_mm(l, d, c, xp)
+            .map_err(|e| AuditError::Parameters {
+                instance: stored.instance,
+                message: e.to_string(),
+            })?
+            .on_wheel(wheel);
         let resp = self
             .sim
             .run_with(Some(&flat), Record::default(), ws)

@@ -22,7 +22,7 @@ def main(bank: pathlib.Path) -> int:
     names = table.column_names
     meta = json.loads(pq.ParquetFile(files[0]).metadata.metadata[b"wheelflat.bank"])
     sensors = meta["sensors"]
-    expected = ["instance", "length_mm", "depth_mm", "curvature_mm", "impact_position_m", "l0_mm"]
+    expected = ["instance", "length_mm", "depth_mm", "curvature_mm", "impact_position_m", "l0_mm", "flat_wheel"]
     for s in sensors:
         width = max(4, len(str(s["samples"] - 1)))
         expected += [f"{s['name']}_t{k:0{width}d}" for k in range(s["samples"])]
@@ -34,11 +34,13 @@ def main(bank: pathlib.Path) -> int:
     instances = table.column("instance").to_pylist()
     if instances != list(range(table.num_rows)):
         problems.append("instance column is not 0..N-1")
-    if str(table.schema.field(names[6]).type) != "float":
+    if set(table.column("flat_wheel").to_pylist()) - {0.0, 1.0}:
+        problems.append("flat_wheel holds values other than 0 (leading) and 1 (trailing)")
+    if str(table.schema.field(names[7]).type) != "float":
         problems.append("sample columns are not float32")
     print(f"rows {table.num_rows}")
     print(f"columns {len(names)}")
-    print(f"first sample column {names[6]}")
+    print(f"first sample column {names[7]}")
     print(f"metadata instances {meta['instances']} format {meta['format_version']} calibration {meta['calibration_sha256'][:12]}")
     print(f"sensors {[s['name'] for s in sensors]}")
     for p in problems:

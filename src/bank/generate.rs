@@ -261,12 +261,14 @@ pub fn generate(
                 || sim.workspace(),
                 |ws, i| {
                     let s = population.instance(i);
+                    let wheel = s.wheel.unwrap_or(cal.vehicle.flat_wheel);
                     let flat =
                         Flat::from_mm(s.length_mm, s.depth_mm, s.curvature_mm, s.impact_position_m)
                             .map_err(|e| BankError::Instance {
                                 instance: i,
                                 message: e.to_string(),
-                            })?;
+                            })?
+                            .on_wheel(wheel);
                     let resp = sim
                         .run_with(Some(&flat), Record::default(), ws)
                         .map_err(|e| BankError::Instance {
@@ -291,6 +293,7 @@ pub fn generate(
                             s.curvature_mm,
                             s.impact_position_m,
                             l0_mm,
+                            wheel.index() as f64,
                         ],
                         forces_kn,
                     })

@@ -4,10 +4,12 @@
 //! Point i of N in the unit 4-cube is `((i + ½)/N, φ₂(i), φ₃(i), φ₅(i))`, `φ_b` the radical
 //! inverse in base b, mapped to (L, d, c/c_max, X_p). The curvature is sampled as a fraction of
 //! its largest admissible value, `c = c_lo + u·(min(c_hi, d/2) − c_lo)` with `u < 1`, so every
-//! instance honours `c < d/2` (paper Eq. 9). A non-zero seed applies a Cranley–Patterson
+//! instance honours `c < d/2` (paper Eq. 9). When the population lists the flat's wheels, a
+//! fifth coordinate φ₇(i) picks one. A non-zero seed applies a Cranley–Patterson
 //! rotation (a seeded shift modulo 1) to the last three coordinates; seed 0 is the plain set.
 
 use crate::model::calibration::PopulationParams;
+use crate::model::WheelPosition;
 
 /// The flat parameters of one model instance, in the units people read (mm, m).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -20,13 +22,16 @@ pub struct FlatSample {
     pub curvature_mm: f64,
     /// Impact position X_p (m).
     pub impact_position_m: f64,
+    /// The wheel carrying the flat, when the population spreads it over wheels (else the
+    /// calibration's `vehicle.flat_wheel`).
+    pub wheel: Option<WheelPosition>,
 }
 
 /// A Hammersley population of `n` instances.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Population {
     n: usize,
-    shift: [f64; 3],
+    shift: [f64; 4],
     ranges: PopulationParams,
 }
 
@@ -63,7 +68,7 @@ impl Population {
     pub fn new(ranges: &PopulationParams, n: usize, seed: u64) -> Population {
         let mut state = seed;
         let shift = if seed == 0 {
-            [0.0; 3]
+            [0.0; 4]
         } else {
             std::array::from_fn(|_| uniform(&mut state))
         };
@@ -103,11 +108,17 @@ impl Population {
         let lerp = |range: [f64; 2], t: f64| range[0] + t * (range[1] - range[0]);
         let depth_mm = lerp(r.depth_mm, u[1]);
         let c_max = r.curvature_mm[1].min(depth_mm / 2.0);
+        // The wheel: a fifth coordinate, φ₇(i), split evenly between the wheels listed.
+        let wheel = r.flat_wheels.as_ref().map(|w| {
+            let v = (radical_inverse(7, i as u64) + self.shift[3]).fract();
+            w[((v * w.len() as f64) as usize).min(w.len() - 1)]
+        });
         FlatSample {
             length_mm: lerp(r.length_mm, u[0]),
             depth_mm,
             curvature_mm: r.curvature_mm[0] + u[2] * (c_max - r.curvature_mm[0]),
             impact_position_m: lerp(r.impact_position_m, u[3]),
+            wheel,
         }
     }
 }

@@ -6,7 +6,7 @@
 
 use super::generate::{CURRENT, MANIFEST};
 use super::schema::{
-    sha256_hex, BankMetadata, Manifest, ShardInfo, METADATA_KEY, PARAMETER_COLUMNS,
+    sha256_hex, BankMetadata, Manifest, ShardInfo, FORMAT_VERSION, METADATA_KEY, PARAMETER_COLUMNS,
 };
 use super::BankError;
 use arrow_array::{Array, Float32Array, Float64Array, UInt32Array};
@@ -56,8 +56,9 @@ pub struct Bank {
 pub struct StoredInstance {
     /// Instance number.
     pub instance: u32,
-    /// L (mm), d (mm), c (mm), X_p (m), L0 (mm), as stored.
-    pub parameters: [f64; 5],
+    /// L (mm), d (mm), c (mm), X_p (m), L0 (mm), flat wheel (0 leading, 1 trailing), as
+    /// stored.
+    pub parameters: [f64; PARAMETER_COLUMNS.len()],
     /// Force samples (kN) per sensor axis, in the bank's axis order.
     pub forces_kn: Vec<Vec<f32>>,
 }
@@ -77,6 +78,8 @@ pub struct Parameters {
     pub impact_position_m: Vec<f64>,
     /// Fresh-flat length L0 = sqrt(8·d·R_w) (mm).
     pub l0_mm: Vec<f64>,
+    /// The wheel carrying the flat: 0 leading, 1 trailing.
+    pub flat_wheel: Vec<u8>,
 }
 
 fn parquet_err(path: &Path) -> impl Fn(parquet::errors::ParquetError) -> BankError + '_ {
@@ -209,6 +212,15 @@ impl Bank {
                     message: format!(
                         "bank id {} does not match the manifest's {}",
                         bank_meta.bank_id, manifest.bank_id
+                    ),
+                });
+            }
+            if bank_meta.format_version != FORMAT_VERSION {
+                return Err(BankError::Corrupt {
+                    path,
+                    message: format!(
+                        "bank format {} — this wheelflat reads format {FORMAT_VERSION}; regenerate the bank with `wheelflat bank generate`",
+                        bank_meta.format_version
                     ),
                 });
             }
@@ -451,7 +463,7 @@ impl Bank {
                 "row {row} holds instance {number}, expected {instance}"
             )));
         }
-        let mut parameters = [0.0; 5];
+        let mut parameters = [0.0; PARAMETER_COLUMNS.len()];
         for (k, p) in parameters.iter_mut().enumerate() {
             *p = batch
                 .column(1 + k)
@@ -500,7 +512,11 @@ impl Bank {
                     2 => &mut p.depth_mm,
                     3 => &mut p.curvature_mm,
                     4 => &mut p.impact_position_m,
-                    _ => &mut p.l0_mm,
+                    5 => &mut p.l0_mm,
+                    _ => {
+                        p.flat_wheel.extend(a.values().iter().map(|&w| w as u8));
+                        return;
+                    }
                 };
                 target.extend_from_slice(a.values());
             }

@@ -8,19 +8,21 @@ use sha2::{Digest, Sha256};
 use std::sync::Arc;
 
 /// Version of the on-disk format (schema, metadata and manifest).
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 /// Revision of the physics: bump when a code change alters simulated values, so that
 /// existing banks are rebuilt and audits report the drift.
 pub const MODEL_REVISION: u32 = 1;
 /// The one key/value metadata key of a shard file; its value is [`BankMetadata`] as JSON.
 pub const METADATA_KEY: &str = "wheelflat.bank";
-/// Parameter columns, in order, before the sample columns.
-pub const PARAMETER_COLUMNS: [&str; 5] = [
+/// Parameter columns, in order, before the sample columns (all f64; `flat_wheel` is 0 for
+/// the leading wheel, 1 for the trailing one). Format 2 added `flat_wheel`.
+pub const PARAMETER_COLUMNS: [&str; 6] = [
     "length_mm",
     "depth_mm",
     "curvature_mm",
     "impact_position_m",
     "l0_mm",
+    "flat_wheel",
 ];
 
 /// Time axis of one sensor's window.
@@ -223,7 +225,7 @@ mod tests {
         let cal = Calibration::default().check().unwrap();
         let axes = sensor_axes(&cal);
         let schema = arrow_schema(&axes);
-        assert_eq!(schema.fields().len(), 1 + 5 + 5 * 1000);
+        assert_eq!(schema.fields().len(), 1 + 6 + 5 * 1000);
         assert_eq!(
             schema.field(sample_column_index(&axes, 1, 137)).name(),
             "rps2_t0137"

@@ -32,6 +32,10 @@ enum Command {
         /// Write to this file instead of standard output.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Population profile: `paper` (flat on the trailing wheel, X_p in [12, 13] m) or
+        /// `train` (either wheel, X_p over one wheel revolution; what `train` needs).
+        #[arg(long, value_enum, default_value_t = Profile::Paper)]
+        profile: Profile,
     },
     /// Simulate one train pass over the sensors and write the rail-pad forces.
     Simulate(SimulateArgs),
@@ -63,6 +67,15 @@ enum Command {
         #[arg(long, default_value_t = 50_000)]
         instances: usize,
     },
+}
+
+/// The built-in population profiles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Profile {
+    /// The paper's: trailing wheel, X_p in [12, 13] m.
+    Paper,
+    /// Whole-train monitoring: both wheels, X_p over one revolution.
+    Train,
 }
 
 #[derive(Debug, Subcommand)]
@@ -278,7 +291,7 @@ pub fn main() -> ExitCode {
     }
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Calibration { out } => cmd_calibration(out.as_deref()),
+        Command::Calibration { out, profile } => cmd_calibration(out.as_deref(), profile),
         Command::Simulate(args) => cmd_simulate(&args),
         Command::Bank { command } => match command {
             BankCommand::Generate(a) => cmd_bank_generate(&a, true),
@@ -330,8 +343,12 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
-fn cmd_calibration(out: Option<&Path>) -> Result<()> {
-    let text = Calibration::default().to_toml_string();
+fn cmd_calibration(out: Option<&Path>, profile: Profile) -> Result<()> {
+    let text = match profile {
+        Profile::Paper => Calibration::default(),
+        Profile::Train => Calibration::train_profile(),
+    }
+    .to_toml_string();
     match out {
         Some(p) => write_atomically(p, text.as_bytes()),
         None => {
@@ -856,9 +873,10 @@ fn cmd_audit(a: &AuditArgs) -> Result<()> {
     let b = bank::Bank::open(&a.bank)
         .with_context(|| format!("cannot open bank {}", a.bank.display()))?;
     let stored = b.read_instance(a.instance)?;
-    let [l, d, c, xp, l0] = stored.parameters;
+    let [l, d, c, xp, l0, wheel] = stored.parameters;
+    let wheel = if wheel < 0.5 { "leading" } else { "trailing" };
     println!(
-        "instance {}: L {l:.2} mm, d {d:.4} mm, c {c:.4} mm, X_p {xp:.4} m, L0 {l0:.1} mm",
+        "instance {}: L {l:.2} mm, d {d:.4} mm, c {c:.4} mm, X_p {xp:.4} m, L0 {l0:.1} mm, on the {wheel} wheel",
         stored.instance
     );
     let resim = audit::Resimulator::new(&b, None)?;
@@ -902,7 +920,7 @@ fn cmd_audit(a: &AuditArgs) -> Result<()> {
             "instance": stored.instance,
             "parameters": {
                 "length_mm": l, "depth_mm": d, "curvature_mm": c,
-                "impact_position_m": xp, "l0_mm": l0,
+                "impact_position_m": xp, "l0_mm": l0, "flat_wheel": wheel,
             },
             "bank_id": b.metadata().bank_id,
             "resimulation": comparison,

@@ -121,7 +121,8 @@ pub fn nearest(points: &[[f64; 4]], k: usize) -> Vec<u32> {
 }
 
 impl Cells {
-    /// The cells of a bank's instances.
+    /// The cells of a bank's instances. Instances with the flat on different wheels are
+    /// never neighbours (the wheel is not a continuous parameter).
     pub fn new(p: &Parameters, ranges: &PopulationParams) -> Cells {
         let coords: Vec<[f64; 4]> = (0..p.length_mm.len())
             .map(|i| {
@@ -133,14 +134,36 @@ impl Cells {
                 ]
             })
             .collect();
-        Cells::from_points(&unit_points(p, ranges), &coords)
+        let unit = unit_points(p, ranges);
+        let mut neighbours = vec![0u32; unit.len() * NEIGHBOURS];
+        for wheel in [0u8, 1] {
+            let members: Vec<usize> = (0..unit.len())
+                .filter(|&i| p.flat_wheel.get(i).copied().unwrap_or(1) == wheel)
+                .collect();
+            if members.is_empty() {
+                continue;
+            }
+            let sub: Vec<[f64; 4]> = members.iter().map(|&i| unit[i]).collect();
+            let nn = nearest(&sub, NEIGHBOURS);
+            for (m, &i) in members.iter().enumerate() {
+                for t in 0..NEIGHBOURS {
+                    neighbours[i * NEIGHBOURS + t] =
+                        members[nn[m * NEIGHBOURS + t] as usize] as u32;
+                }
+            }
+        }
+        Cells::from_neighbours(neighbours, &coords)
     }
 
     /// The cells of any point set: `unit` places the points for the neighbour search, `coords`
     /// (L, d, c, X_p) give the cells' physical extents.
     pub fn from_points(unit: &[[f64; 4]], coords: &[[f64; 4]]) -> Cells {
+        Cells::from_neighbours(nearest(unit, NEIGHBOURS), coords)
+    }
+
+    /// Cells from a neighbour list (`NEIGHBOURS` per point) and the points' (L, d, c, X_p).
+    fn from_neighbours(neighbours: Vec<u32>, coords: &[[f64; 4]]) -> Cells {
         let k = NEIGHBOURS;
-        let neighbours = nearest(unit, k);
         let half_extent = (0..coords.len())
             .map(|i| {
                 let x = coords[i];

@@ -20,6 +20,7 @@ pub use result::Identification;
 
 use crate::bank::{Bank, BankError, Parameters};
 use crate::model::calibration::IdentificationParams;
+use crate::model::WheelPosition;
 use cells::Cells;
 use entropy::{bin_predictions_into, greedy_joint_entropy, Binned};
 use falsify::{falsify, random_subset_counts, residual_minimisation, Point, Resolution};
@@ -121,7 +122,29 @@ fn ranges_of(
         curvature_mm: r(&params.curvature_mm, 2, population.curvature_mm),
         impact_position_m: r(&params.impact_position_m, 3, population.impact_position_m),
         l0_mm: [l0(depth_mm[0]), l0(depth_mm[1])],
+        flat_wheels: wheels_of(members.map(|k| params.flat_wheel[k])),
     })
+}
+
+/// The wheel of a stored wheel code (0 leading, 1 trailing).
+pub(crate) fn wheel_of(code: u8) -> WheelPosition {
+    if code == 0 {
+        WheelPosition::Leading
+    } else {
+        WheelPosition::Trailing
+    }
+}
+
+/// The distinct wheels among stored wheel codes, leading first.
+fn wheels_of(codes: impl Iterator<Item = u8>) -> Vec<WheelPosition> {
+    let mut seen = [false; 2];
+    for c in codes {
+        seen[usize::from(c != 0)] = true;
+    }
+    [WheelPosition::Leading, WheelPosition::Trailing]
+        .into_iter()
+        .filter(|w| seen[w.index()])
+        .collect()
 }
 
 fn instance(params: &Parameters, k: usize) -> InstanceParams {
@@ -132,6 +155,7 @@ fn instance(params: &Parameters, k: usize) -> InstanceParams {
         curvature_mm: params.curvature_mm[k],
         impact_position_m: params.impact_position_m[k],
         l0_mm: params.l0_mm[k],
+        flat_wheel: wheel_of(params.flat_wheel[k]),
     }
 }
 
@@ -528,6 +552,11 @@ impl Identifier {
                 (8.0 * cal.population.depth_mm[0] * cal.vehicle.wheel_radius_m * 1e3).sqrt(),
                 (8.0 * cal.population.depth_mm[1] * cal.vehicle.wheel_radius_m * 1e3).sqrt(),
             ],
+            flat_wheels: cal
+                .population
+                .flat_wheels
+                .clone()
+                .unwrap_or_else(|| vec![cal.vehicle.flat_wheel]),
         };
         let refuted = cms.is_empty();
         let (summary, hint) = summarise(&cms_ranges, cms.len(), n, m_final, s);

@@ -1,5 +1,6 @@
 //! The machine-readable result of one identification (written as JSON, drawn by the report).
 
+use crate::model::WheelPosition;
 use serde::{Deserialize, Serialize};
 
 /// How the measurement was put on the bank's time axis.
@@ -76,6 +77,8 @@ pub struct InstanceParams {
     pub impact_position_m: f64,
     /// Fresh-flat length L0 = sqrt(8·d·R_w) (mm).
     pub l0_mm: f64,
+    /// The wheel carrying the flat.
+    pub flat_wheel: WheelPosition,
 }
 
 /// `[min, max]` of each parameter over a set of instances.
@@ -91,6 +94,8 @@ pub struct ParamRanges {
     pub impact_position_m: [f64; 2],
     /// L0 (mm).
     pub l0_mm: [f64; 2],
+    /// The wheels that carry the flat in the set.
+    pub flat_wheels: Vec<WheelPosition>,
 }
 
 /// Result of falsification with one set of comparison points.

@@ -187,6 +187,12 @@ pub struct PopulationParams {
     pub curvature_mm: [f64; 2],
     /// Impact position X_p range (m).
     pub impact_position_m: [f64; 2],
+    /// The wheels that may carry the flat, spread over the instances (a fifth low-discrepancy
+    /// coordinate picks one per instance). Absent: `vehicle.flat_wheel` only, the paper's
+    /// profile. The train profile (`wheelflat calibration --profile train`) has both, with
+    /// X_p over one wheel revolution.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flat_wheels: Option<Vec<WheelPosition>>,
 }
 
 /// Whether an uncertainty source scales with the force or is a fixed amount.
@@ -392,6 +398,7 @@ impl Default for Calibration {
                 depth_mm: [0.1, 1.0],
                 curvature_mm: [0.0, 0.5],
                 impact_position_m: [12.0, 13.0],
+                flat_wheels: None,
             },
             identification: IdentificationParams::default(),
         }
@@ -481,6 +488,20 @@ impl CheckedCalibration {
 }
 
 impl Calibration {
+    /// The train profile: the defaults with a population for whole-train monitoring, where a
+    /// flat may be on either wheel of a bogie and strike anywhere along a revolution: both
+    /// wheels, X_p over one circumference `2πR_w` from 12 m.
+    pub fn train_profile() -> Calibration {
+        let mut c = Calibration::default();
+        let start = c.population.impact_position_m[0];
+        c.population.impact_position_m = [
+            start,
+            start + std::f64::consts::TAU * c.vehicle.wheel_radius_m,
+        ];
+        c.population.flat_wheels = Some(vec![WheelPosition::Leading, WheelPosition::Trailing]);
+        c
+    }
+
     /// Parses a TOML document (no checking beyond syntax and key names).
     pub fn from_toml_str(text: &str) -> Result<Calibration, CalibrationError> {
         Ok(toml::from_str(text)?)
@@ -638,6 +659,15 @@ impl Calibration {
         range("population.curvature_mm", p.curvature_mm, -1.0)?;
         non_negative("population.curvature_mm[0]", p.curvature_mm[0])?;
         range("population.impact_position_m", p.impact_position_m, -1.0)?;
+        if let Some(w) = &p.flat_wheels {
+            if w.is_empty() || (w.len() == 2 && w[0] == w[1]) || w.len() > 2 {
+                return Err(invalid(
+                    "population.flat_wheels",
+                    format!("{w:?}"),
+                    "one or both of \"leading\", \"trailing\", each once",
+                ));
+            }
+        }
         if p.curvature_mm[0] >= p.depth_mm[0] / 2.0 {
             return Err(invalid(
                 "population.curvature_mm[0]",

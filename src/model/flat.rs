@@ -1,5 +1,7 @@
 //! The wheel flat: its geometry (paper Eq. 9) and where it strikes the rail.
 
+use super::calibration::WheelPosition;
+
 use thiserror::Error;
 
 /// Errors in flat parameters.
@@ -24,6 +26,7 @@ pub struct Flat {
     depth_m: f64,
     curvature_m: f64,
     impact_position_m: f64,
+    wheel: Option<WheelPosition>,
 }
 
 impl Flat {
@@ -70,7 +73,21 @@ impl Flat {
             depth_m: depth_mm * 1e-3,
             curvature_m: curvature_mm * 1e-3,
             impact_position_m,
+            wheel: None,
         })
+    }
+
+    /// The same flat on a given wheel (without one, the calibration's `vehicle.flat_wheel`).
+    pub fn on_wheel(self, wheel: WheelPosition) -> Flat {
+        Flat {
+            wheel: Some(wheel),
+            ..self
+        }
+    }
+
+    /// The wheel it is on, when set on the flat itself.
+    pub fn wheel(&self) -> Option<WheelPosition> {
+        self.wheel
     }
 
     /// Flat length L (m).

@@ -283,12 +283,17 @@ impl Simulator {
         ]
     }
 
+    /// Index of the wheel carrying `flat`: its own, else the calibration's.
+    fn flat_wheel(&self, flat: &Flat) -> usize {
+        flat.wheel().unwrap_or(self.cal.vehicle.flat_wheel).index()
+    }
+
     /// Flat trajectory `z_tr` under each wheel at time `t`.
     #[inline]
     fn trajectories(&self, flat: Option<&Flat>, x: [f64; 2]) -> [f64; 2] {
         let mut z = [0.0; 2];
         if let Some(f) = flat {
-            let w = self.cal.vehicle.flat_wheel.index();
+            let w = self.flat_wheel(f);
             z[w] = f.trajectory(x[w], self.wheel_radius);
         }
         z
@@ -500,7 +505,7 @@ impl Simulator {
 
     /// Time windows (s) in which fine steps are taken: around every strike of the flat.
     fn fine_zones(&self, flat: &Flat, t_end: f64) -> (Vec<f64>, Vec<(f64, f64)>) {
-        let w = self.cal.vehicle.flat_wheel.index();
+        let w = self.flat_wheel(flat);
         let x0 = self.wheel_start[w];
         let x1 = x0 + self.speed * t_end;
         let strikes = flat.strikes_between(x0, x1, self.wheel_radius);

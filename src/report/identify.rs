@@ -1700,6 +1700,12 @@ fn ranges_of(instances: &[InstanceParams]) -> Option<ParamRanges> {
         curvature_mm: range(|p| p.curvature_mm)?,
         impact_position_m: range(|p| p.impact_position_m)?,
         l0_mm: range(|p| p.l0_mm)?,
+        flat_wheels: {
+            let mut w: Vec<_> = instances.iter().map(|p| p.flat_wheel).collect();
+            w.sort_by_key(|w| w.index());
+            w.dedup();
+            w
+        },
     })
 }
 
@@ -2127,6 +2133,7 @@ mod tests {
             curvature_mm: q(0.2 + 0.15 * (f * 2.3).cos().abs()),
             impact_position_m: q(0.9 + 0.35 * (f * 0.37).sin()),
             l0_mm: q((8.0 * depth * 400.0).sqrt()),
+            flat_wheel: crate::model::WheelPosition::Trailing,
         }
     }
 
@@ -2202,6 +2209,7 @@ mod tests {
                 q((8.0f64 * 0.1 * 400.0).sqrt()),
                 q((8.0f64 * 2.0 * 400.0).sqrt()),
             ],
+            flat_wheels: vec![crate::model::WheelPosition::Trailing],
         };
         Identification {
             measurement: "measurements/2019-03-14_train7_axle3.parquet".into(),
@@ -2254,6 +2262,7 @@ mod tests {
                         curvature_mm: [0.0, 1.0],
                         impact_position_m: [0.0, 3.0],
                         l0_mm: [31.0, 62.0],
+                        flat_wheels: vec![crate::model::WheelPosition::Trailing],
                     }),
                 },
                 Falsification {
@@ -2270,6 +2279,7 @@ mod tests {
                 curvature_mm: 0.31,
                 impact_position_m: 1.1,
                 l0_mm: q((8.0f64 * 0.52 * 400.0).sqrt()),
+                flat_wheel: crate::model::WheelPosition::Trailing,
             },
             random_subsets: Some(RandomSubsets {
                 subsets: 200,
