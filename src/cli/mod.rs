@@ -51,6 +51,9 @@ enum Command {
     Identify(IdentifyArgs),
     /// Print the paper-style comparison of the method with its baselines for one measurement.
     Compare(CompareArgs),
+    /// Identify every wheel of a whole train pass: one recording, the trigger time of every
+    /// wheel; a table (CSV, JSON, HTML) with flat yes/no, L0 range and severity per wheel.
+    Train(TrainArgs),
     /// Audit one model instance: re-simulate it and compare with the bank; with a measurement,
     /// show why it is kept or falsified.
     Audit(AuditArgs),
@@ -179,6 +182,18 @@ struct SynthArgs {
     /// Leave the laser trigger time out (alignment then uses cross-correlation).
     #[arg(long)]
     no_trigger: bool,
+    /// A whole train instead of one bogie: writes the recording, a trigger file
+    /// (`<out>.triggers.csv`, one time per wheel) and the truth. Without `--flat-on`: flats
+    /// on bogie 2 leading, bogie 7 trailing and bogie 11 leading.
+    #[arg(long)]
+    train: bool,
+    /// Bogies in the train.
+    #[arg(long, default_value_t = 12, requires = "train")]
+    bogies: usize,
+    /// A flat on one wheel of the train: `BOGIE:WHEEL:L_MM:D_MM:C_MM:XP_M`, e.g.
+    /// `3:leading:60:0.5:0.1:12.9` (repeat for more).
+    #[arg(long = "flat-on", requires = "train")]
+    flat_on: Vec<String>,
 }
 
 #[derive(Debug, Args)]
@@ -208,6 +223,22 @@ struct IdentifyArgs {
     /// Skip the baselines (residual minimisation is always reported) and entropy curves.
     #[arg(long)]
     no_baselines: bool,
+}
+
+#[derive(Debug, Args)]
+struct TrainArgs {
+    /// Bank directory (a train-profile bank: both wheels, X_p over a revolution).
+    #[arg(long, default_value = "bank")]
+    bank: PathBuf,
+    /// The recording: CSV `time_s,<sensor>_kn,…` over the whole train pass.
+    #[arg(long)]
+    recording: PathBuf,
+    /// Trigger times, one per wheel passing the laser (`time_s` column).
+    #[arg(long)]
+    triggers: PathBuf,
+    /// Report folder: `train.csv`, `train.json`, `train.html`.
+    #[arg(long)]
+    out: PathBuf,
 }
 
 #[derive(Debug, Args)]
@@ -308,6 +339,7 @@ pub fn main() -> ExitCode {
         Command::Identify(a) => cmd_identify(&a),
         Command::Compare(a) => cmd_compare(&a),
         Command::Audit(a) => cmd_audit(&a),
+        Command::Train(a) => cmd_train(&a),
         Command::Demo {
             out,
             bank,
@@ -869,6 +901,58 @@ fn cmd_bank_audit(dir: &Path, sample: usize, calibration: Option<&Path>) -> Resu
     )
 }
 
+fn cmd_train(a: &TrainArgs) -> Result<()> {
+    let b = bank::Bank::open(&a.bank)
+        .with_context(|| format!("cannot open bank {}", a.bank.display()))?;
+    crate::train::check_coverage(&b, &a.bank)?;
+    let cal = b
+        .metadata()
+        .calibration
+        .clone()
+        .check()
+        .context("the bank's stored calibration")?;
+    let rate = b.metadata().sensors[0].sample_rate_hz;
+    let text = std::fs::read_to_string(&a.recording)
+        .with_context(|| format!("cannot read recording {}", a.recording.display()))?;
+    let recording = Measurement::from_csv(&a.recording, &text, rate)?;
+    let ttext = std::fs::read_to_string(&a.triggers)
+        .with_context(|| format!("cannot read triggers {}", a.triggers.display()))?;
+    let times = crate::train::read_triggers(&a.triggers, &ttext)?;
+    let bogies = crate::train::bogies_from_triggers(&cal, &a.triggers, &times)?;
+    let identifier = Identifier::new(b, cal.identification.clone())?;
+    let result = crate::train::identify_train(&identifier, &recording, &bogies)?;
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create output folder {}", a.out.display()))?;
+    let csv = a.out.join("train.csv");
+    let json = a.out.join("train.json");
+    let html = a.out.join("train.html");
+    write_atomically(&csv, crate::train::table_csv(&result).as_bytes())?;
+    write_atomically(
+        &json,
+        serde_json::to_string_pretty(&result)
+            .expect("train result serialises")
+            .as_bytes(),
+    )?;
+    write_atomically(&html, crate::train::table_html(&result).as_bytes())?;
+    print!("{}", crate::train::table_text(&result));
+    let flats = result.wheels.iter().filter(|w| w.flat == "yes").count();
+    println!(
+        "{} bogies, {} wheels: {flats} with a flat; identified in {:.0} ms ({:.0} ms per bogie)",
+        result.bogies.len(),
+        result.wheels.len(),
+        result.total_ms,
+        result.total_ms / result.bogies.len().max(1) as f64
+    );
+    println!("severity rule: {}", result.severity_rule);
+    println!(
+        "wrote {}, {} and {}",
+        csv.display(),
+        json.display(),
+        html.display()
+    );
+    Ok(())
+}
+
 fn cmd_audit(a: &AuditArgs) -> Result<()> {
     let b = bank::Bank::open(&a.bank)
         .with_context(|| format!("cannot open bank {}", a.bank.display()))?;
@@ -1055,8 +1139,87 @@ fn audit_table(c: &audit::MeasuredCheck) -> String {
     s
 }
 
+/// Parses `BOGIE:WHEEL:L_MM:D_MM:C_MM:XP_M`.
+fn parse_flat_on(text: &str, bogies: usize) -> Result<crate::train::TrainFlat> {
+    let f: Vec<&str> = text.split(':').collect();
+    anyhow::ensure!(
+        f.len() == 6,
+        "--flat-on `{text}`: expected BOGIE:WHEEL:L_MM:D_MM:C_MM:XP_M, e.g. 3:leading:60:0.5:0.1:12.9"
+    );
+    let bogie: usize = f[0]
+        .parse()
+        .with_context(|| format!("--flat-on `{text}`: bogie `{}` is not a number", f[0]))?;
+    anyhow::ensure!(
+        (1..=bogies).contains(&bogie),
+        "--flat-on `{text}`: bogie {bogie} is not in the train (1 to {bogies})"
+    );
+    let wheel = match f[1] {
+        "leading" => crate::model::WheelPosition::Leading,
+        "trailing" => crate::model::WheelPosition::Trailing,
+        w => anyhow::bail!("--flat-on `{text}`: wheel `{w}` is neither `leading` nor `trailing`"),
+    };
+    let num = |i: usize, what: &str| -> Result<f64> {
+        f[i].parse()
+            .with_context(|| format!("--flat-on `{text}`: {what} `{}` is not a number", f[i]))
+    };
+    let flat = Flat::from_mm(num(2, "L")?, num(3, "d")?, num(4, "c")?, num(5, "X_p")?)
+        .with_context(|| format!("--flat-on `{text}`"))?;
+    Ok(crate::train::TrainFlat { bogie, wheel, flat })
+}
+
+fn cmd_synth_train(a: &SynthArgs, cal: &CheckedCalibration) -> Result<()> {
+    let specs: Vec<String> = if a.flat_on.is_empty() {
+        vec![
+            "2:leading:60:0.5:0.1:12.4".into(),
+            "7:trailing:45:0.3:0.05:13.5".into(),
+            "11:leading:90:0.8:0.2:14.0".into(),
+        ]
+    } else {
+        a.flat_on.clone()
+    };
+    let flats = specs
+        .iter()
+        .map(|t| parse_flat_on(t, a.bogies))
+        .collect::<Result<Vec<_>>>()?;
+    let mut spec = crate::train::TrainSpec::twelve_bogies(flats, a.seed);
+    spec.bogies = a.bogies;
+    let syn = crate::train::synthesize_train(cal, &spec)?;
+    let triggers = a.out.with_extension("triggers.csv");
+    let truth = a
+        .truth
+        .clone()
+        .unwrap_or_else(|| a.out.with_extension("truth.json"));
+    write_atomically(&a.out, syn.csv.as_bytes())?;
+    write_atomically(&triggers, syn.triggers_csv.as_bytes())?;
+    let json = serde_json::to_string_pretty(&syn.truth).expect("truth serialises");
+    write_atomically(&truth, json.as_bytes())?;
+    println!(
+        "synthetic train of {} bogies, flats on {}, seed {}: wrote {}, {} and {}",
+        a.bogies,
+        syn.truth
+            .flats
+            .iter()
+            .map(|f| format!(
+                "bogie {} {} (L0 {:.1} mm)",
+                f.0,
+                format!("{:?}", f.1).to_lowercase(),
+                f.6
+            ))
+            .collect::<Vec<_>>()
+            .join(", "),
+        a.seed,
+        a.out.display(),
+        triggers.display(),
+        truth.display()
+    );
+    Ok(())
+}
+
 fn cmd_synth(a: &SynthArgs) -> Result<()> {
     let cal = load_calibration(a.calibration.as_deref())?;
+    if a.train {
+        return cmd_synth_train(a, &cal);
+    }
     let flat = flat_from_args(&a.flat)?.context("synth needs a flat (drop --no-flat)")?;
     let syn = identify::synth::synthesize(&cal, &flat, a.seed, !a.no_trigger)?;
     let truth_path = a

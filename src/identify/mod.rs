@@ -29,6 +29,7 @@ use result::{
     Alignment, CandidatePoint, EntropyCurve, Falsification, InstanceParams, MeasuredSeries,
     ParamRanges, RandomSubsets,
 };
+pub use result::{FlatFreeCheck, WheelRanges};
 use std::path::PathBuf;
 use std::sync::Mutex;
 use std::time::Instant;
@@ -83,6 +84,16 @@ pub struct Extras {
     pub baselines: bool,
     /// Joint entropy curves per sensor set (paper Fig. 16).
     pub curves: bool,
+}
+
+/// A measurement made ready for comparison with the bank.
+struct Prepared {
+    /// (measurement sensor index, bank axis index) of the sensors used.
+    used: Vec<(usize, usize)>,
+    alignment: Alignment,
+    series: Vec<MeasuredSeries>,
+    /// Candidate points: (series, sample, PIP order).
+    cands: Vec<(usize, usize, usize)>,
 }
 
 /// What is kept open between measurements.
@@ -215,19 +226,14 @@ impl Identifier {
         )
     }
 
-    /// Identifies the flat behind one measurement. `sensors` restricts the sensors used.
-    pub fn identify(
+    /// The per-measurement preparation of [`Identifier::identify`]: sensors, alignment, the
+    /// series on the bank's windows,
+    /// and their PIPs.
+    fn prepare(
         &self,
         m: &Measurement,
         sensors: Option<&[String]>,
-        extras: Extras,
-    ) -> Result<Identification, IdentifyError> {
-        let mut timings = Vec::new();
-        let mut clock = Instant::now();
-        let mut lap = |name: &str, timings: &mut Vec<(String, f64)>| {
-            timings.push((name.to_string(), clock.elapsed().as_secs_f64() * 1e3));
-            clock = Instant::now();
-        };
+    ) -> Result<Prepared, IdentifyError> {
         let meta = self.bank.metadata();
         let cal = &meta.calibration;
         let s = &self.settings;
@@ -330,7 +336,6 @@ impl Identifier {
                 values_kn: m.on_window(mi, axis, alignment.shift_s)?,
             });
         }
-        lap("align", &mut timings);
 
         // PIPs → candidate points.
         let mut cands: Vec<(usize, usize, usize)> = Vec::new(); // (series, sample, pip order)
@@ -343,8 +348,73 @@ impl Identifier {
                 cands.push((si, k, order));
             }
         }
-        lap("pip", &mut timings);
+        Ok(Prepared {
+            used,
+            alignment,
+            series,
+            cands,
+        })
+    }
 
+    /// The good-wheel check ([`FlatFreeCheck`]): the bank's flat-free prediction is one more
+    /// candidate, judged at the identification's comparison points (it is computed, not
+    /// sampled, so it gets no cell widening), with thresholds for the target probability `phi`
+    /// over those points (Šídák). `phi` = the identification's φ judges it like any instance;
+    /// a larger one spreads a family-wise φ over several measurements (a whole train).
+    pub fn check_good_wheel(&self, id: &Identification, phi: f64) -> FlatFreeCheck {
+        let meta = self.bank.metadata();
+        let p = phi.powf(1.0 / id.eip.len().max(1) as f64);
+        let mut outside = 0;
+        let mut worst: Option<(String, f64, f64, f64, f64)> = None;
+        for &e in &id.eip {
+            let c = &id.candidates[e];
+            let name = &id.series[c.series].sensor;
+            let Some(axis) = meta.sensors.iter().position(|a| &a.name == name) else {
+                continue;
+            };
+            let g = meta.flat_free_kn[axis][c.sample] as f64;
+            let (lo, hi) = self.uncertainty.thresholds(c.measured_kn, p);
+            let r = g - c.measured_kn;
+            let beyond = (r - hi).max(lo - r);
+            if beyond > 0.0 {
+                outside += 1;
+            }
+            if worst.as_ref().is_none_or(|w| beyond > w.4) {
+                worst = Some((name.clone(), c.time_s, c.measured_kn, g, beyond));
+            }
+        }
+        FlatFreeCheck {
+            points: id.eip.len(),
+            per_point_probability: p,
+            outside,
+            worst,
+            passes: outside == 0,
+        }
+    }
+
+    /// Identifies the flat behind one measurement. `sensors` restricts the sensors used.
+    pub fn identify(
+        &self,
+        m: &Measurement,
+        sensors: Option<&[String]>,
+        extras: Extras,
+    ) -> Result<Identification, IdentifyError> {
+        let mut timings = Vec::new();
+        let mut clock = Instant::now();
+        let mut lap = |name: &str, timings: &mut Vec<(String, f64)>| {
+            timings.push((name.to_string(), clock.elapsed().as_secs_f64() * 1e3));
+            clock = Instant::now();
+        };
+        let Prepared {
+            used,
+            alignment,
+            series,
+            cands,
+        } = self.prepare(m, sensors)?;
+        let meta = self.bank.metadata();
+        let cal = &meta.calibration;
+        let s = &self.settings;
+        lap("align and pip", &mut timings);
         // Bank predictions at the candidates (the hot read).
         let cols: Vec<usize> = cands
             .iter()
@@ -433,6 +503,21 @@ impl Identifier {
             .map(|&k| instance(&self.params, k as usize))
             .collect();
         let cms_ranges = self.ranges(cms_idx.iter().map(|&k| k as usize));
+        let wheel_ranges: Vec<WheelRanges> = [WheelPosition::Leading, WheelPosition::Trailing]
+            .into_iter()
+            .filter_map(|wheel| {
+                let members: Vec<usize> = cms_idx
+                    .iter()
+                    .map(|&k| k as usize)
+                    .filter(|&k| wheel_of(self.params.flat_wheel[k]) == wheel)
+                    .collect();
+                Some(WheelRanges {
+                    wheel,
+                    cms_count: members.len(),
+                    ranges: self.ranges(members.into_iter())?,
+                })
+            })
+            .collect();
         let mut falsifications = vec![Falsification {
             method: "EIP (joint entropy)".into(),
             points: m_final,
@@ -578,6 +663,7 @@ impl Identifier {
             per_point_probability: p_final,
             cms,
             falsifications,
+            wheel_ranges,
             residual_minimisation: instance(&self.params, rm),
             random_subsets,
             model_class_refuted: refuted,

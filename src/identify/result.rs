@@ -53,6 +53,35 @@ pub struct CandidatePoint {
     pub resolution_kn: f64,
 }
 
+/// The candidate model set of one wheel.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WheelRanges {
+    /// The wheel.
+    pub wheel: WheelPosition,
+    /// Surviving instances with the flat on it.
+    pub cms_count: usize,
+    /// Their parameter ranges (union of cells).
+    pub ranges: ParamRanges,
+}
+
+/// The good-wheel check: the bank's flat-free prediction against the measurement at the
+/// comparison points, with their thresholds. Passing means no flat can be told from the
+/// measurement.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FlatFreeCheck {
+    /// Points compared (the EIP).
+    pub points: usize,
+    /// Per-point probability `φ^(1/points)` (Šídák).
+    pub per_point_probability: f64,
+    /// Points where the flat-free prediction lies outside the thresholds.
+    pub outside: usize,
+    /// The point farthest outside (or closest to the edge when none is outside): sensor, bank
+    /// time (s), measured (kN), flat-free prediction (kN), how far outside (kN, ≤ 0 inside).
+    pub worst: Option<(String, f64, f64, f64, f64)>,
+    /// No point outside: the measurement is consistent with a good wheel.
+    pub passes: bool,
+}
+
 /// Joint entropy as points are added greedily, for one set of sensors (paper Fig. 16).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct EntropyCurve {
@@ -166,6 +195,9 @@ pub struct Identification {
     pub cms: Vec<InstanceParams>,
     /// Falsification with the EIP (the method's answer) and the baselines.
     pub falsifications: Vec<Falsification>,
+    /// The candidate model set split by the wheel carrying the flat.
+    #[serde(default)]
+    pub wheel_ranges: Vec<WheelRanges>,
     /// Residual minimisation without uncertainties over the EIP (paper §4.4).
     pub residual_minimisation: InstanceParams,
     /// Random subsets of the PIPs (paper §4.5).

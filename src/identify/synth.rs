@@ -8,7 +8,7 @@
 //! resolution), and quantisation to the sensor resolution (a resolution of ±r is a step of 2r).
 
 use super::uncertainty::uniform;
-use crate::model::calibration::{UncertaintyGroup, UncertaintyKind};
+use crate::model::calibration::{IdentificationParams, UncertaintyGroup, UncertaintyKind};
 use crate::model::{CheckedCalibration, Flat, Record, SimError, Simulator};
 use serde::{Deserialize, Serialize};
 
@@ -49,6 +49,35 @@ pub struct Synthetic {
     pub truth: Truth,
 }
 
+/// One draw of every uncertainty source of `group` and `kind`, summed (the resolution left
+/// out when asked: it is applied as quantisation).
+pub(crate) fn draw_sources(
+    id: &IdentificationParams,
+    group: UncertaintyGroup,
+    kind: UncertaintyKind,
+    skip_resolution: bool,
+    state: &mut u64,
+) -> f64 {
+    id.uncertainty
+        .iter()
+        .filter(|u| {
+            u.group == group
+                && u.kind == kind
+                && !(skip_resolution && u.name.contains("resolution"))
+        })
+        .map(|u| u.min + (u.max - u.min) * uniform(state))
+        .sum()
+}
+
+/// The quantisation step of the sensors (kN): a resolution of ±r is a step of 2r.
+pub(crate) fn resolution_step_kn(id: &IdentificationParams) -> f64 {
+    id.uncertainty
+        .iter()
+        .filter(|u| u.group == UncertaintyGroup::Measurement && u.name.contains("resolution"))
+        .map(|u| u.max - u.min)
+        .sum()
+}
+
 /// Simulates `flat` with `cal` and perturbs it; `with_trigger` writes the laser trigger time.
 pub fn synthesize(
     cal: &CheckedCalibration,
@@ -65,17 +94,8 @@ pub fn synthesize(
     let resp = sim.run(Some(flat), Record::default())?;
     let id = &cal.identification;
     let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1CE;
-    let mut draw = |group: UncertaintyGroup, kind: UncertaintyKind, skip_resolution: bool| -> f64 {
-        id.uncertainty
-            .iter()
-            .filter(|u| {
-                u.group == group
-                    && u.kind == kind
-                    && !(skip_resolution && u.name.contains("resolution"))
-            })
-            .map(|u| u.min + (u.max - u.min) * uniform(&mut state))
-            .sum()
-    };
+    let mut draw =
+        |group, kind, skip_resolution| draw_sources(id, group, kind, skip_resolution, &mut state);
     let names: Vec<String> = cal.sensors.pad.iter().map(|p| p.name.clone()).collect();
     let model_error: Vec<f64> = names
         .iter()
@@ -91,12 +111,7 @@ pub fn synthesize(
             )
         })
         .collect();
-    let resolution_kn = id
-        .uncertainty
-        .iter()
-        .filter(|u| u.group == UncertaintyGroup::Measurement && u.name.contains("resolution"))
-        .map(|u| u.max - u.min)
-        .sum::<f64>();
+    let resolution_kn = resolution_step_kn(id);
     let rate = cal.output.sample_rate_hz;
     let mut csv = String::from("# wheelflat synthetic measurement (see the truth JSON)\n");
     let shift_s = resp.first_sample as f64 / rate;

@@ -2245,6 +2245,7 @@ mod tests {
             phi: 0.95,
             per_point_probability: q(0.95f64.powf(1.0 / 6.0)),
             cms: cms.clone(),
+            wheel_ranges: Vec::new(),
             falsifications: vec![
                 Falsification {
                     method: "EIP (joint entropy)".into(),

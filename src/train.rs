@@ -1,0 +1,596 @@
+//! Whole-train identification: one recording of all sensors while a train of many bogies
+//! passes, with the laser trigger time of every wheel. Each bogie is identified on its own:
+//! its leading wheel's trigger aligns the recording to the bank's time axis (the bank's
+//! windows then cut the bogie's part out of the recording). The good wheel is one more
+//! candidate: the bank's flat-free prediction is judged at the bogie's comparison points; when
+//! it survives, no flat can be told from the measurement and the bogie's wheels are reported
+//! without one. Its thresholds spread φ over the train's bogies (Šídák, `φ^(1/bogies)` per
+//! bogie), so that a false flat anywhere on a train of good wheels has probability ≤ 1 − φ;
+//! per bogie that would be 1 − φ, and a 12-bogie train of good wheels would raise one in
+//! about 46 % of passes.
+//!
+//! The bank simulates one isolated half bogie; a train's bogies are far enough apart (the
+//! synthetic train: 12.5 m within a car, 8 m between cars) that a neighbouring bogie adds
+//! next to nothing inside a bogie's windows.
+
+use crate::bank::Bank;
+use crate::identify::synth::{draw_sources, resolution_step_kn};
+use crate::identify::{
+    Extras, FlatFreeCheck, Identification, Identifier, IdentifyError, Measurement,
+};
+use crate::model::calibration::{UncertaintyGroup, UncertaintyKind};
+use crate::model::{CheckedCalibration, Flat, Record, SimError, Simulator, WheelPosition};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+use std::time::Instant;
+
+/// A flat hidden on one wheel of a synthetic train.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainFlat {
+    /// Bogie number, 1-based in running order.
+    pub bogie: usize,
+    /// The wheel of the (half) bogie.
+    pub wheel: WheelPosition,
+    /// The flat.
+    pub flat: Flat,
+}
+
+/// A synthetic train.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainSpec {
+    /// Bogies, in running order (two per car).
+    pub bogies: usize,
+    /// Flats; every other wheel is good.
+    pub flats: Vec<TrainFlat>,
+    /// Bogie-centre spacing within a car and between cars (m).
+    pub spacing_m: [f64; 2],
+    /// Seed of the perturbation.
+    pub seed: u64,
+}
+
+impl TrainSpec {
+    /// 12 bogies (6 cars), 12.5 m bogie centres within a car, 8 m between cars.
+    pub fn twelve_bogies(flats: Vec<TrainFlat>, seed: u64) -> TrainSpec {
+        TrainSpec {
+            bogies: 12,
+            flats,
+            spacing_m: [12.5, 8.0],
+            seed,
+        }
+    }
+}
+
+/// What a synthetic train hides.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrainTruth {
+    /// Bogies in the train.
+    pub bogies: usize,
+    /// (bogie, wheel, L mm, d mm, c mm, X_p m, L0 mm) of every flat.
+    pub flats: Vec<(usize, WheelPosition, f64, f64, f64, f64, f64)>,
+    /// Leading-wheel trigger time of every bogie (recording clock, s).
+    pub leading_triggers_s: Vec<f64>,
+    /// Seed of the perturbation.
+    pub seed: u64,
+}
+
+/// A synthetic train recording.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SyntheticTrain {
+    /// The recording (measurement CSV format).
+    pub csv: String,
+    /// The trigger times, one per wheel (`time_s` column).
+    pub triggers_csv: String,
+    /// The truth.
+    pub truth: TrainTruth,
+}
+
+/// Simulates every bogie (the good ones once), places them on one clock and perturbs the sum
+/// as `synth` does: per bogie and sensor a systematic model error, per sensor a gain error,
+/// noise per sample, quantisation.
+pub fn synthesize_train(
+    cal: &CheckedCalibration,
+    spec: &TrainSpec,
+) -> Result<SyntheticTrain, SimError> {
+    let sim = Simulator::new(cal)?;
+    let v = cal.speed_m_per_s();
+    let rate = cal.output.sample_rate_hz;
+    // Sample offset of each bogie: its centre's distance behind the first one.
+    let mut offsets = Vec::with_capacity(spec.bogies);
+    let mut distance = 0.0;
+    for b in 0..spec.bogies {
+        offsets.push((distance / v * rate).round() as usize);
+        distance += spec.spacing_m[b % 2];
+    }
+    let flat_of = |b: usize| {
+        spec.flats
+            .iter()
+            .find(|f| f.bogie == b + 1)
+            .map(|f| f.flat.on_wheel(f.wheel))
+    };
+    let good = sim.run(None, Record::default())?;
+    let flats: Vec<Option<crate::model::Response>> = (0..spec.bogies)
+        .into_par_iter()
+        .map(|b| {
+            flat_of(b)
+                .map(|f| sim.run(Some(&f), Record::default()))
+                .transpose()
+        })
+        .collect::<Result<_, _>>()?;
+    let n_sensors = cal.sensors.pad.len();
+    let first = good.first_sample;
+    let len = offsets.last().copied().unwrap_or(0) + good.len();
+    let id = &cal.identification;
+    let mut state = spec.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0x7EA1;
+    let mut sum = vec![vec![0.0f64; len]; n_sensors];
+    for (b, &off) in offsets.iter().enumerate() {
+        let resp = flats[b].as_ref().unwrap_or(&good);
+        for (s, series) in resp.pad_force_n.iter().enumerate() {
+            let e = draw_sources(
+                id,
+                UncertaintyGroup::Model,
+                UncertaintyKind::Relative,
+                false,
+                &mut state,
+            );
+            for (j, &g) in series.iter().enumerate() {
+                sum[s][off + j] += g / 1e3 * (1.0 - e);
+            }
+        }
+    }
+    let gain: Vec<f64> = (0..n_sensors)
+        .map(|_| {
+            draw_sources(
+                id,
+                UncertaintyGroup::Measurement,
+                UncertaintyKind::Relative,
+                false,
+                &mut state,
+            )
+        })
+        .collect();
+    let step = resolution_step_kn(id);
+    let names: Vec<&str> = cal.sensors.pad.iter().map(|p| p.name.as_str()).collect();
+    let mut csv = format!(
+        "# wheelflat synthetic train: {} bogies (see the truth JSON)\n# speed_km_per_h = {}\ntime_s",
+        spec.bogies, cal.run.speed_km_per_h
+    );
+    for n in &names {
+        csv += &format!(",{n}_kn");
+    }
+    csv.push('\n');
+    for j in 0..len {
+        csv += &format!("{:.6}", j as f64 / rate);
+        for s in 0..n_sensors {
+            let noise = draw_sources(
+                id,
+                UncertaintyGroup::Measurement,
+                UncertaintyKind::AbsoluteKn,
+                true,
+                &mut state,
+            );
+            let mut y = sum[s][j] * (1.0 + gain[s]) + noise;
+            if step > 0.0 {
+                y = (y / step).round() * step;
+            }
+            csv += &format!(",{y:.4}");
+        }
+        csv.push('\n');
+    }
+    // Triggers on the recording clock: sample 0 is the bank's global sample `first` of bogie 1.
+    let t_lead = (cal.sensors.laser_trigger_m - cal.run.leading_wheel_start_m) / v;
+    let gap = 2.0 * cal.vehicle.half_wheelbase_m / v;
+    let leading: Vec<f64> = offsets
+        .iter()
+        .map(|&off| t_lead + (off as f64 - first as f64) / rate)
+        .collect();
+    let mut triggers_csv = String::from("time_s\n");
+    for &t in &leading {
+        triggers_csv += &format!("{t:.6}\n{:.6}\n", t + gap);
+    }
+    let radius = cal.vehicle.wheel_radius_m;
+    Ok(SyntheticTrain {
+        csv,
+        triggers_csv,
+        truth: TrainTruth {
+            bogies: spec.bogies,
+            flats: spec
+                .flats
+                .iter()
+                .map(|f| {
+                    (
+                        f.bogie,
+                        f.wheel,
+                        f.flat.length_m() * 1e3,
+                        f.flat.depth_m() * 1e3,
+                        f.flat.curvature_m() * 1e3,
+                        f.flat.impact_position_m(),
+                        f.flat.fresh_length_m(radius) * 1e3,
+                    )
+                })
+                .collect(),
+            leading_triggers_s: leading,
+            seed: spec.seed,
+        },
+    })
+}
+
+/// Reads a trigger file: one time per wheel passing the laser (s, recording clock), an
+/// optional `time_s` header, `#` comments. Errors name the file, line and value.
+pub fn read_triggers(path: &Path, text: &str) -> Result<Vec<f64>, IdentifyError> {
+    let bad = |line: usize, message: String| IdentifyError::Measurement {
+        path: path.to_path_buf(),
+        line,
+        message,
+    };
+    let mut times: Vec<f64> = Vec::new();
+    for (i, raw) in text.lines().enumerate() {
+        let line = raw.trim();
+        if line.is_empty() || line.starts_with('#') || (i == 0 && line == "time_s") {
+            continue;
+        }
+        let t: f64 = line
+            .parse()
+            .map_err(|_| bad(i + 1, format!("`{line}` is not a time in seconds")))?;
+        if !t.is_finite() {
+            return Err(bad(i + 1, format!("`{line}` is not a finite time")));
+        }
+        if let Some(&prev) = times.last() {
+            if t <= prev {
+                return Err(bad(
+                    i + 1,
+                    format!("trigger time {t} s does not increase (previous {prev} s)"),
+                ));
+            }
+        }
+        times.push(t);
+    }
+    if times.is_empty() {
+        return Err(bad(1, "no trigger times".into()));
+    }
+    Ok(times)
+}
+
+/// Pairs the triggers into bogies (leading, trailing wheel) and checks each pair against the
+/// bank's wheelbase and speed (2 %).
+pub fn bogies_from_triggers(
+    cal: &CheckedCalibration,
+    path: &Path,
+    times: &[f64],
+) -> Result<Vec<[f64; 2]>, IdentifyError> {
+    if times.len() % 2 != 0 {
+        return Err(IdentifyError::Measurement {
+            path: path.to_path_buf(),
+            line: 1,
+            message: format!(
+                "{} trigger times: a half bogie has two wheels, so the count must be even",
+                times.len()
+            ),
+        });
+    }
+    let expected = 2.0 * cal.vehicle.half_wheelbase_m / cal.speed_m_per_s();
+    times
+        .chunks(2)
+        .enumerate()
+        .map(|(b, p)| {
+            let gap = p[1] - p[0];
+            if (gap / expected - 1.0).abs() > 0.02 {
+                return Err(IdentifyError::Measurement {
+                    path: path.to_path_buf(),
+                    line: 2 * b + 2,
+                    message: format!(
+                        "bogie {}: its wheels passed {gap:.4} s apart, which is {:.1} km/h over the {:.2} m wheelbase; the bank is for {} km/h (±2 %)",
+                        b + 1,
+                        2.0 * cal.vehicle.half_wheelbase_m / gap * 3.6,
+                        2.0 * cal.vehicle.half_wheelbase_m,
+                        cal.run.speed_km_per_h
+                    ),
+                });
+            }
+            Ok([p[0], p[1]])
+        })
+        .collect()
+}
+
+/// Whether a bank's population covers a train: both wheels, X_p over a whole revolution.
+pub fn check_coverage(bank: &Bank, dir: &Path) -> Result<(), IdentifyError> {
+    let cal = &bank.metadata().calibration;
+    let p = &cal.population;
+    let wheels = p
+        .flat_wheels
+        .clone()
+        .unwrap_or_else(|| vec![cal.vehicle.flat_wheel]);
+    let revolution = std::f64::consts::TAU * cal.vehicle.wheel_radius_m;
+    let span = p.impact_position_m[1] - p.impact_position_m[0];
+    let both =
+        wheels.contains(&WheelPosition::Leading) && wheels.contains(&WheelPosition::Trailing);
+    if both && span >= revolution - 1e-3 {
+        return Ok(());
+    }
+    Err(IdentifyError::Invalid(format!(
+        "bank {} does not cover a train: its population has the flat on the {} wheel{} and X_p over {span:.2} m of the {revolution:.2} m wheel revolution. A flat can be on either wheel and strike anywhere along a revolution: build a train-profile bank (`wheelflat calibration --profile train --out train.toml`, then `wheelflat bank generate --calibration train.toml --out train-bank`)",
+        dir.display(),
+        wheels
+            .iter()
+            .map(|w| format!("{w:?}").to_lowercase())
+            .collect::<Vec<_>>()
+            .join(" and "),
+        if wheels.len() > 1 { "s" } else { "" },
+    )))
+}
+
+/// One wheel's line of the train table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WheelRow {
+    /// Car, 1-based (two bogies per car).
+    pub car: usize,
+    /// Bogie, 1-based in running order.
+    pub bogie: usize,
+    /// Leading or trailing wheel of the (half) bogie.
+    pub wheel: WheelPosition,
+    /// `no`, `yes`, or `unknown` (the model class is refuted for this bogie).
+    pub flat: String,
+    /// L0 range of the flat (mm), when there is one.
+    pub l0_mm: Option<[f64; 2]>,
+    /// Surviving instances with the flat on this wheel.
+    pub cms_count: usize,
+    /// Severity class (rule in [`severity`]).
+    pub severity: String,
+}
+
+/// One bogie's outcome.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BogieResult {
+    /// Bogie, 1-based.
+    pub bogie: usize,
+    /// Leading and trailing trigger times (s, recording clock).
+    pub triggers_s: [f64; 2],
+    /// The good-wheel check.
+    pub flat_free: FlatFreeCheck,
+    /// The identification, when the good wheel is falsified.
+    pub identification: Option<Identification>,
+    /// Milliseconds spent on the bogie.
+    pub ms: f64,
+}
+
+/// The whole train.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrainResult {
+    /// The recording.
+    pub recording: String,
+    /// The bank.
+    pub bank_id: String,
+    /// One line per wheel.
+    pub wheels: Vec<WheelRow>,
+    /// Per bogie.
+    pub bogies: Vec<BogieResult>,
+    /// The severity rule, in words.
+    pub severity_rule: String,
+    /// Wall time (ms).
+    pub total_ms: f64,
+}
+
+/// Severity from the upper bound of L0, the conservative end (an under-estimated flat is the
+/// safety risk): `urgent` when it reaches `urgent_l0_mm` (remove within 24 h), `inspect` when
+/// it reaches `inspect_l0_mm`, else `monitor`; `none` without a flat; `inspect` when the model
+/// is refuted (something the model lacks is on the wheel or the track).
+pub fn severity(flat: &str, l0: Option<[f64; 2]>, urgent_mm: f64, inspect_mm: f64) -> String {
+    match (flat, l0) {
+        ("no", _) => "none".into(),
+        ("yes", Some([_, hi])) if hi >= urgent_mm => "urgent".into(),
+        ("yes", Some([_, hi])) if hi >= inspect_mm => "inspect".into(),
+        ("yes", Some(_)) => "monitor".into(),
+        _ => "inspect".into(),
+    }
+}
+
+/// Identifies every bogie of a train recording.
+pub fn identify_train(
+    identifier: &Identifier,
+    recording: &Measurement,
+    bogies: &[[f64; 2]],
+) -> Result<TrainResult, IdentifyError> {
+    let clock = Instant::now();
+    let s = identifier.settings();
+    let mut results = Vec::with_capacity(bogies.len());
+    let mut rows = Vec::with_capacity(2 * bogies.len());
+    // A false "flat" on any good bogie of the train is kept below 1 − φ: Šídák over bogies.
+    let phi_bogie = s.phi.powf(1.0 / bogies.len().max(1) as f64);
+    let mut m = recording.clone();
+    for (b, &triggers) in bogies.iter().enumerate() {
+        let started = Instant::now();
+        m.laser_trigger_s = Some(triggers[0]);
+        let id = identifier.identify(
+            &m,
+            None,
+            Extras {
+                baselines: false,
+                curves: false,
+            },
+        )?;
+        let check = identifier.check_good_wheel(&id, phi_bogie);
+        let identification = (!check.passes).then_some(id);
+        for wheel in [WheelPosition::Leading, WheelPosition::Trailing] {
+            let (flat, l0, count) = match &identification {
+                None => ("no", None, 0),
+                Some(id) if id.cms.is_empty() => ("unknown", None, 0),
+                Some(id) => match id.wheel_ranges.iter().find(|w| w.wheel == wheel) {
+                    Some(w) => ("yes", Some(w.ranges.l0_mm), w.cms_count),
+                    None => ("no", None, 0),
+                },
+            };
+            rows.push(WheelRow {
+                car: b / 2 + 1,
+                bogie: b + 1,
+                wheel,
+                flat: flat.into(),
+                l0_mm: l0,
+                cms_count: count,
+                severity: severity(flat, l0, s.urgent_l0_mm, s.inspect_l0_mm),
+            });
+        }
+        results.push(BogieResult {
+            bogie: b + 1,
+            triggers_s: triggers,
+            flat_free: check,
+            identification,
+            ms: started.elapsed().as_secs_f64() * 1e3,
+        });
+    }
+    Ok(TrainResult {
+        recording: recording.path.display().to_string(),
+        bank_id: identifier.bank().metadata().bank_id.clone(),
+        wheels: rows,
+        bogies: results,
+        severity_rule: format!(
+            "none: the good wheel survives the bogie's comparison points at φ^(1/bogies) = {:.4} (no flat can be told from the measurement); otherwise by the upper L0 bound of the wheel's candidate model set: urgent (remove within 24 h) from {} mm, inspect from {} mm, monitor below; inspect when every instance is falsified (the model is refuted)",
+            phi_bogie, s.urgent_l0_mm, s.inspect_l0_mm
+        ),
+        total_ms: clock.elapsed().as_secs_f64() * 1e3,
+    })
+}
+
+/// The table as CSV.
+pub fn table_csv(r: &TrainResult) -> String {
+    let mut s = String::from("car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity\n");
+    for w in &r.wheels {
+        let (lo, hi) = w.l0_mm.map_or((String::new(), String::new()), |[a, b]| {
+            (format!("{a:.1}"), format!("{b:.1}"))
+        });
+        s += &format!(
+            "{},{},{},{},{lo},{hi},{},{}\n",
+            w.car,
+            w.bogie,
+            format!("{:?}", w.wheel).to_lowercase(),
+            w.flat,
+            w.cms_count,
+            w.severity
+        );
+    }
+    s
+}
+
+/// The table for people.
+pub fn table_text(r: &TrainResult) -> String {
+    let mut s = format!(
+        "{:<4} {:<6} {:<9} {:<8} {:<16} {:>7}  {}\n",
+        "car", "bogie", "wheel", "flat", "L0 (mm)", "CMS", "severity"
+    );
+    for w in &r.wheels {
+        let l0 = w
+            .l0_mm
+            .map_or("—".to_string(), |[a, b]| format!("[{a:.0}, {b:.0}]"));
+        s += &format!(
+            "{:<4} {:<6} {:<9} {:<8} {:<16} {:>7}  {}\n",
+            w.car,
+            w.bogie,
+            format!("{:?}", w.wheel).to_lowercase(),
+            w.flat,
+            l0,
+            w.cms_count,
+            w.severity
+        );
+    }
+    s
+}
+
+/// The HTML section (a self-contained page).
+pub fn table_html(r: &TrainResult) -> String {
+    let esc = |t: &str| {
+        t.replace('&', "&amp;")
+            .replace('<', "&lt;")
+            .replace('>', "&gt;")
+    };
+    let mut h = String::from(
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>wheelflat: train</title>\n<style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}td,th{border:1px solid #bbb;padding:4px 8px}td.num{text-align:right}.urgent{background:#f8d0d0}.inspect{background:#fbe7c0}.monitor{background:#e8f0d8}</style></head><body>\n",
+    );
+    h += &format!(
+        "<h1>Whole-train identification</h1>\n<p>Recording <code>{}</code>, bank <code>{}</code>, {} bogies in {:.0} ms.</p>\n<h2>Wheels</h2>\n<table><thead><tr><th>car</th><th>bogie</th><th>wheel</th><th>flat</th><th>L0 (mm)</th><th>CMS</th><th>severity</th></tr></thead><tbody>\n",
+        esc(&r.recording),
+        esc(&r.bank_id),
+        r.bogies.len(),
+        r.total_ms
+    );
+    for w in &r.wheels {
+        let l0 = w
+            .l0_mm
+            .map_or("—".to_string(), |[a, b]| format!("[{a:.0}, {b:.0}]"));
+        h += &format!(
+            "<tr class=\"{}\"><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td><td>{}</td><td>{l0}</td><td class=\"num\">{}</td><td>{}</td></tr>\n",
+            esc(&w.severity),
+            w.car,
+            w.bogie,
+            format!("{:?}", w.wheel).to_lowercase(),
+            esc(&w.flat),
+            w.cms_count,
+            esc(&w.severity)
+        );
+    }
+    h += &format!(
+        "</tbody></table>\n<p>Severity rule: {}.</p>\n<h2>Bogies</h2>\n<ul>\n",
+        esc(&r.severity_rule)
+    );
+    for b in &r.bogies {
+        let text = match &b.identification {
+            None => format!(
+                "good wheel kept at all {} comparison points (closest {:.2} kN inside)",
+                b.flat_free.points,
+                -b.flat_free.worst.as_ref().map_or(0.0, |w| w.4)
+            ),
+            Some(id) => format!(
+                "good wheel falsified at {} of {} comparison points; {}",
+                b.flat_free.outside, b.flat_free.points, id.summary
+            ),
+        };
+        h += &format!("<li>bogie {}: {}</li>\n", b.bogie, esc(&text));
+    }
+    h += "</ul>\n</body></html>\n";
+    h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Calibration;
+
+    #[test]
+    fn triggers_are_read_and_paired_with_errors_naming_line_and_value() {
+        let p = Path::new("t.csv");
+        assert_eq!(
+            read_triggers(p, "time_s\n1.0\n1.5\n").unwrap(),
+            vec![1.0, 1.5]
+        );
+        let e = read_triggers(p, "time_s\n1.0\nx\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("t.csv, line 3: `x` is not a time"), "{e}");
+        let e = read_triggers(p, "2.0\n1.0\n").unwrap_err().to_string();
+        assert!(
+            e.contains("line 2: trigger time 1 s does not increase"),
+            "{e}"
+        );
+        let cal = Calibration::default().check().unwrap();
+        let gap = 2.0 * cal.vehicle.half_wheelbase_m / cal.speed_m_per_s();
+        assert_eq!(
+            bogies_from_triggers(&cal, p, &[1.0, 1.0 + gap]).unwrap(),
+            vec![[1.0, 1.0 + gap]]
+        );
+        let e = bogies_from_triggers(&cal, p, &[1.0, 1.0 + 1.1 * gap])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("bogie 1: its wheels passed"), "{e}");
+        let e = bogies_from_triggers(&cal, p, &[1.0])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("count must be even"), "{e}");
+    }
+
+    #[test]
+    fn severity_follows_the_stated_rule() {
+        assert_eq!(severity("no", None, 40.0, 25.0), "none");
+        assert_eq!(severity("yes", Some([30.0, 41.0]), 40.0, 25.0), "urgent");
+        assert_eq!(severity("yes", Some([20.0, 30.0]), 40.0, 25.0), "inspect");
+        assert_eq!(severity("yes", Some([18.0, 24.0]), 40.0, 25.0), "monitor");
+        assert_eq!(severity("unknown", None, 40.0, 25.0), "inspect");
+    }
+}
