@@ -161,7 +161,7 @@ pub fn synthesize_train(
     csv.push('\n');
     for j in 0..len {
         csv += &format!("{:.6}", j as f64 / rate);
-        for s in 0..n_sensors {
+        for (series, g) in sum.iter().zip(&gain) {
             let noise = draw_sources(
                 id,
                 UncertaintyGroup::Measurement,
@@ -169,7 +169,7 @@ pub fn synthesize_train(
                 true,
                 &mut state,
             );
-            let mut y = sum[s][j] * (1.0 + gain[s]) + noise;
+            let mut y = series[j] * (1.0 + g) + noise;
             if step > 0.0 {
                 y = (y / step).round() * step;
             }
@@ -258,7 +258,7 @@ pub fn bogies_from_triggers(
     path: &Path,
     times: &[f64],
 ) -> Result<Vec<[f64; 2]>, IdentifyError> {
-    if times.len() % 2 != 0 {
+    if !times.len().is_multiple_of(2) {
         return Err(IdentifyError::Measurement {
             path: path.to_path_buf(),
             line: 1,
