@@ -944,6 +944,9 @@ fn cmd_train(a: &TrainArgs) -> Result<()> {
         result.total_ms / result.bogies.len().max(1) as f64
     );
     println!("severity rule: {}", result.severity_rule);
+    for w in &result.warnings {
+        println!("warning: {w}");
+    }
     println!(
         "wrote {}, {} and {}",
         csv.display(),

@@ -64,12 +64,11 @@ pub struct WheelRanges {
     pub ranges: ParamRanges,
 }
 
-/// The good-wheel check: the bank's flat-free prediction against the measurement at the
-/// comparison points, with their thresholds. Passing means no flat can be told from the
-/// measurement.
+/// The good-wheel check: the bank's flat-free prediction against the measurement at every
+/// PIP. Passing means no flat can be told from the measurement.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FlatFreeCheck {
-    /// Points compared (the EIP).
+    /// Points compared (all PIPs).
     pub points: usize,
     /// Per-point probability `φ^(1/points)` (Šídák).
     pub per_point_probability: f64,

@@ -1,0 +1,97 @@
+//! Whole-train reliability study (issue #6): seeded synthetic 12-bogie trains with flats on
+//! bogie 2 leading, bogie 7 trailing and bogie 11 leading, identified against a train-profile
+//! bank: `cargo run --release --example train_study -- BANK_DIR [SEEDS] [FIRST_SEED]`.
+//! Prints per seed the wheels reported with a flat, and the totals: flats found on the right
+//! wheel, truths inside the reported L0 range, false flats on good wheels, time per train.
+use std::path::Path;
+use wheelflat::bank::Bank;
+use wheelflat::identify::{Identifier, Measurement};
+use wheelflat::model::{Flat, WheelPosition};
+use wheelflat::train::{self, TrainFlat, TrainSpec};
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let dir = args
+        .get(1)
+        .expect("usage: train_study BANK_DIR [SEEDS] [FIRST_SEED]");
+    let seeds: u64 = args.get(2).map_or(20, |s| s.parse().expect("SEEDS"));
+    let first: u64 = args.get(3).map_or(1, |s| s.parse().expect("FIRST_SEED"));
+    let bank = Bank::open(Path::new(dir)).expect("open bank");
+    train::check_coverage(&bank, Path::new(dir)).expect("a train-profile bank");
+    let cal = bank
+        .metadata()
+        .calibration
+        .clone()
+        .check()
+        .expect("calibration");
+    let mut settings = cal.identification.clone();
+    if let Ok(n) = std::env::var("MC_SAMPLES") {
+        settings.monte_carlo_samples = n.parse().expect("MC_SAMPLES is a number");
+    }
+    let id = Identifier::new(bank, settings).expect("identifier");
+    let flats = vec![
+        TrainFlat {
+            bogie: 2,
+            wheel: WheelPosition::Leading,
+            flat: Flat::from_mm(60.0, 0.5, 0.1, 12.4).unwrap(),
+        },
+        TrainFlat {
+            bogie: 7,
+            wheel: WheelPosition::Trailing,
+            flat: Flat::from_mm(45.0, 0.3, 0.05, 13.5).unwrap(),
+        },
+        TrainFlat {
+            bogie: 11,
+            wheel: WheelPosition::Leading,
+            flat: Flat::from_mm(90.0, 0.8, 0.2, 14.0).unwrap(),
+        },
+    ];
+    let (mut found, mut inside, mut false_flats, mut exact, mut ms) = (0, 0, 0, 0, 0.0);
+    for seed in first..first + seeds {
+        let syn = train::synthesize_train(&cal, &TrainSpec::twelve_bogies(flats.clone(), seed))
+            .expect("synthesize");
+        let m = Measurement::from_csv(Path::new("train.csv"), &syn.csv, 2500.0).expect("csv");
+        let times = train::read_triggers(Path::new("t.csv"), &syn.triggers_csv).expect("t");
+        let bogies = train::bogies_from_triggers(&cal, Path::new("t.csv"), &times).expect("b");
+        let r = train::identify_train(&id, &m, &bogies).expect("train");
+        ms += r.total_ms;
+        let (mut f, mut i, mut ff) = (0, 0, 0);
+        let mut line = Vec::new();
+        for w in &r.wheels {
+            let truth = flats
+                .iter()
+                .find(|t| t.bogie == w.bogie && t.wheel == w.wheel);
+            match (truth, w.flat.as_str()) {
+                (Some(t), "yes") => {
+                    f += 1;
+                    let l0 = t.flat.fresh_length_m(cal.vehicle.wheel_radius_m) * 1e3;
+                    let [lo, hi] = w.l0_mm.expect("a flat has a range");
+                    if lo <= l0 && l0 <= hi {
+                        i += 1;
+                    }
+                    line.push(format!("{}{:?}[{lo:.0},{hi:.0}]", w.bogie, w.wheel));
+                }
+                (None, "no") => {}
+                (None, other) => {
+                    ff += 1;
+                    line.push(format!("FALSE {}{:?} ({other})", w.bogie, w.wheel));
+                }
+                (Some(_), other) => line.push(format!("MISSED {}{:?} ({other})", w.bogie, w.wheel)),
+            }
+        }
+        if f == 3 && i == 3 && ff == 0 {
+            exact += 1;
+        }
+        found += f;
+        inside += i;
+        false_flats += ff;
+        println!("seed {seed:>3}: {:.0} ms  {}", r.total_ms, line.join("  "));
+    }
+    let n = seeds as f64;
+    println!(
+        "{seeds} trains: flats found on the right wheel {found}/{}, truth L0 inside the range {inside}/{found}, false flats on good wheels {false_flats}/{}, trains exactly right {exact}/{seeds}, mean {:.0} ms per train",
+        3 * seeds,
+        21 * seeds,
+        ms / n
+    );
+}

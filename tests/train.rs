@@ -1,0 +1,193 @@
+//! Whole-train identification (issue #6), CI-sized: a train-profile bank over narrower flat
+//! sizes (both wheels, X_p over a whole revolution), a synthetic 12-bogie train with flats on
+//! three wheels, leading and trailing.
+
+use assert_cmd::Command;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+use wheelflat::bank::{self, Bank, GenerateOptions, Quiet, StorageFormat};
+use wheelflat::identify::{Identifier, Measurement};
+use wheelflat::model::{Calibration, CheckedCalibration, Flat, WheelPosition};
+use wheelflat::train::{self, TrainFlat, TrainSpec};
+
+fn wheelflat() -> Command {
+    Command::new(assert_cmd::cargo::cargo_bin("wheelflat"))
+}
+
+/// The train profile over narrower sizes, 600-sample windows, 4,000 instances.
+fn small_train_bank() -> &'static (PathBuf, CheckedCalibration) {
+    static BANK: OnceLock<(PathBuf, CheckedCalibration)> = OnceLock::new();
+    BANK.get_or_init(|| {
+        let mut c = Calibration::train_profile();
+        c.output.window_samples = 600;
+        c.population.length_mm = [40.0, 100.0];
+        c.population.depth_mm = [0.25, 0.85];
+        c.population.curvature_mm = [0.0, 0.2];
+        let cal = c.check().unwrap();
+        let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("train-bank");
+        let opts = GenerateOptions {
+            instances: 4000,
+            seed: 0,
+            shard_size: 1000,
+            machine_shard: None,
+            format: StorageFormat::default(),
+            simulate_missing: true,
+        };
+        bank::generate(&cal, &dir, &opts, &Quiet).unwrap();
+        (dir, cal)
+    })
+}
+
+fn flats() -> Vec<TrainFlat> {
+    vec![
+        TrainFlat {
+            bogie: 2,
+            wheel: WheelPosition::Leading,
+            flat: Flat::from_mm(60.0, 0.5, 0.1, 12.4).unwrap(),
+        },
+        TrainFlat {
+            bogie: 7,
+            wheel: WheelPosition::Trailing,
+            flat: Flat::from_mm(45.0, 0.3, 0.05, 13.5).unwrap(),
+        },
+        TrainFlat {
+            bogie: 11,
+            wheel: WheelPosition::Leading,
+            flat: Flat::from_mm(90.0, 0.8, 0.15, 14.0).unwrap(),
+        },
+    ]
+}
+
+#[test]
+fn flats_are_found_on_the_right_wheels_and_good_wheels_stay_good() {
+    let (dir, cal) = small_train_bank();
+    let bank = Bank::open(dir).unwrap();
+    train::check_coverage(&bank, dir).unwrap();
+    let id = Identifier::new(bank, cal.identification.clone()).unwrap();
+    let truth = flats();
+    let syn = train::synthesize_train(cal, &TrainSpec::twelve_bogies(truth.clone(), 4)).unwrap();
+    let m = Measurement::from_csv(Path::new("train.csv"), &syn.csv, 2500.0).unwrap();
+    let times = train::read_triggers(Path::new("t.csv"), &syn.triggers_csv).unwrap();
+    assert_eq!(times.len(), 24);
+    let bogies = train::bogies_from_triggers(cal, Path::new("t.csv"), &times).unwrap();
+    let r = train::identify_train(&id, &m, &bogies).unwrap();
+    print!("{}", train::table_text(&r));
+    assert_eq!(r.wheels.len(), 24);
+    for w in &r.wheels {
+        let t = truth
+            .iter()
+            .find(|t| t.bogie == w.bogie && t.wheel == w.wheel);
+        assert_eq!(w.car, w.bogie.div_ceil(2));
+        match t {
+            Some(t) => {
+                assert_eq!(w.flat, "yes", "bogie {} {:?}", w.bogie, w.wheel);
+                let l0 = t.flat.fresh_length_m(cal.vehicle.wheel_radius_m) * 1e3;
+                let [lo, hi] = w.l0_mm.unwrap();
+                assert!(
+                    lo <= l0 && l0 <= hi,
+                    "bogie {}: L0 {l0} outside [{lo}, {hi}]",
+                    w.bogie
+                );
+                assert!(w.cms_count > 0);
+                assert_ne!(w.severity, "none");
+            }
+            None => {
+                assert_eq!(w.flat, "no", "bogie {} {:?}: false flat", w.bogie, w.wheel);
+                assert_eq!(w.severity, "none");
+            }
+        }
+    }
+    // The table's CSV has a header and one line per wheel.
+    let csv = train::table_csv(&r);
+    assert_eq!(csv.lines().count(), 25);
+    assert!(csv.starts_with("car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity\n"));
+}
+
+#[test]
+fn the_commands_write_the_report_and_refuse_a_bank_that_does_not_cover_a_train() {
+    let (dir, _) = small_train_bank();
+    let tmp = tempfile::tempdir().unwrap();
+    let rec = tmp.path().join("train.csv");
+    let mut synth = wheelflat();
+    synth
+        .args(["synth", "--train", "--seed", "4", "--out"])
+        .arg(&rec)
+        .args(["--flat-on", "5:trailing:70:0.6:0.1:12.8"]);
+    let out = synth.assert().success();
+    let text = String::from_utf8(out.get_output().stdout.clone()).unwrap();
+    assert!(text.contains("flats on bogie 5 trailing"), "{text}");
+    let triggers = tmp.path().join("train.triggers.csv");
+    assert!(triggers.exists() && tmp.path().join("train.truth.json").exists());
+
+    let report = tmp.path().join("report");
+    let out = wheelflat()
+        .arg("train")
+        .arg("--bank")
+        .arg(dir)
+        .arg("--recording")
+        .arg(&rec)
+        .arg("--triggers")
+        .arg(&triggers)
+        .arg("--out")
+        .arg(&report)
+        .assert()
+        .success();
+    let text = String::from_utf8(out.get_output().stdout.clone()).unwrap();
+    assert!(text.contains("12 bogies, 24 wheels"), "{text}");
+    for f in ["train.csv", "train.json", "train.html"] {
+        assert!(report.join(f).metadata().unwrap().len() > 500, "{f}");
+    }
+
+    // A bad trigger file is named with its line.
+    let bad = tmp.path().join("bad.csv");
+    std::fs::write(&bad, "time_s\n0.5\n0.4\n").unwrap();
+    let err = wheelflat()
+        .arg("train")
+        .arg("--bank")
+        .arg(dir)
+        .arg("--recording")
+        .arg(&rec)
+        .arg("--triggers")
+        .arg(&bad)
+        .arg("--out")
+        .arg(&report)
+        .assert()
+        .failure();
+    let stderr = String::from_utf8(err.get_output().stderr.clone()).unwrap();
+    assert!(
+        stderr.contains("bad.csv, line 3: trigger time 0.4 s does not increase"),
+        "{stderr}"
+    );
+
+    // The paper's profile (trailing wheel, 1 m of X_p) does not cover a train.
+    let mut paper = Calibration::default();
+    paper.output.window_samples = 50;
+    let paper = paper.check().unwrap();
+    let pdir = tmp.path().join("paper-bank");
+    let opts = GenerateOptions {
+        instances: 8,
+        seed: 0,
+        shard_size: 8,
+        machine_shard: None,
+        format: StorageFormat::default(),
+        simulate_missing: true,
+    };
+    bank::generate(&paper, &pdir, &opts, &Quiet).unwrap();
+    let err = wheelflat()
+        .arg("train")
+        .arg("--bank")
+        .arg(&pdir)
+        .arg("--recording")
+        .arg(&rec)
+        .arg("--triggers")
+        .arg(&triggers)
+        .arg("--out")
+        .arg(&report)
+        .assert()
+        .failure();
+    let stderr = String::from_utf8(err.get_output().stderr.clone()).unwrap();
+    assert!(
+        stderr.contains("does not cover a train: its population has the flat on the trailing wheel and X_p over 1.00 m of the 2.51 m wheel revolution"),
+        "{stderr}"
+    );
+}
