@@ -9,8 +9,8 @@ use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use wheelflat::bank::{self, Bank, GenerateOptions, Quiet, StorageFormat};
 use wheelflat::identify::{Identifier, Measurement};
-use wheelflat::model::{Calibration, Flat, WheelPosition};
-use wheelflat::train::{self, TrainFlat, TrainSpec};
+use wheelflat::model::Calibration;
+use wheelflat::train::{self, TrainSpec};
 
 fn bench_train(c: &mut Criterion) {
     let dir = std::env::var_os("WHEELFLAT_BENCH_TRAIN_BANK")
@@ -33,24 +33,7 @@ fn bench_train(c: &mut Criterion) {
     let n = bank.instances();
     let cal = bank.metadata().calibration.clone().check().unwrap();
     let id = Identifier::new(bank, cal.identification.clone()).unwrap();
-    let flat = |l, d, c, x| Flat::from_mm(l, d, c, x).unwrap();
-    let flats = vec![
-        TrainFlat {
-            bogie: 2,
-            wheel: WheelPosition::Leading,
-            flat: flat(60.0, 0.5, 0.1, 12.4),
-        },
-        TrainFlat {
-            bogie: 7,
-            wheel: WheelPosition::Trailing,
-            flat: flat(45.0, 0.3, 0.05, 13.5),
-        },
-        TrainFlat {
-            bogie: 11,
-            wheel: WheelPosition::Leading,
-            flat: flat(90.0, 0.8, 0.2, 14.0),
-        },
-    ];
+    let flats = train::default_flats();
     let syn = train::synthesize_train(&cal, &TrainSpec::twelve_bogies(flats, 4)).unwrap();
     let m = Measurement::from_csv(Path::new("train.csv"), &syn.csv, 2500.0).unwrap();
     let times = train::read_triggers(Path::new("t.csv"), &syn.triggers_csv).unwrap();

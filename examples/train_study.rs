@@ -6,8 +6,7 @@
 use std::path::Path;
 use wheelflat::bank::Bank;
 use wheelflat::identify::{Identifier, Measurement};
-use wheelflat::model::{Flat, WheelPosition};
-use wheelflat::train::{self, TrainFlat, TrainSpec};
+use wheelflat::train::{self, TrainSpec};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -29,23 +28,7 @@ fn main() {
         settings.monte_carlo_samples = n.parse().expect("MC_SAMPLES is a number");
     }
     let id = Identifier::new(bank, settings).expect("identifier");
-    let flats = vec![
-        TrainFlat {
-            bogie: 2,
-            wheel: WheelPosition::Leading,
-            flat: Flat::from_mm(60.0, 0.5, 0.1, 12.4).unwrap(),
-        },
-        TrainFlat {
-            bogie: 7,
-            wheel: WheelPosition::Trailing,
-            flat: Flat::from_mm(45.0, 0.3, 0.05, 13.5).unwrap(),
-        },
-        TrainFlat {
-            bogie: 11,
-            wheel: WheelPosition::Leading,
-            flat: Flat::from_mm(90.0, 0.8, 0.2, 14.0).unwrap(),
-        },
-    ];
+    let flats = train::default_flats();
     let (mut found, mut inside, mut false_flats, mut exact, mut ms) = (0, 0, 0, 0, 0.0);
     for seed in first..first + seeds {
         let syn = train::synthesize_train(&cal, &TrainSpec::twelve_bogies(flats.clone(), seed))

@@ -51,6 +51,29 @@ pub struct TrainSpec {
     pub seed: u64,
 }
 
+/// The default train's flats: bogie 2 leading (60 × 0.5 mm), bogie 7 trailing (45 × 0.3 mm),
+/// bogie 11 leading (90 × 0.8 mm), at impact positions spread over the revolution.
+pub fn default_flats() -> Vec<TrainFlat> {
+    let flat = |l, d, c, x| Flat::from_mm(l, d, c, x).expect("valid default flat");
+    vec![
+        TrainFlat {
+            bogie: 2,
+            wheel: WheelPosition::Leading,
+            flat: flat(60.0, 0.5, 0.1, 12.4),
+        },
+        TrainFlat {
+            bogie: 7,
+            wheel: WheelPosition::Trailing,
+            flat: flat(45.0, 0.3, 0.05, 13.5),
+        },
+        TrainFlat {
+            bogie: 11,
+            wheel: WheelPosition::Leading,
+            flat: flat(90.0, 0.8, 0.2, 14.0),
+        },
+    ]
+}
+
 impl TrainSpec {
     /// 12 bogies (6 cars), 12.5 m bogie centres within a car, 9 m between cars: farther apart
     /// than a bogie's windows reach (8 m with the default sensors), see [`identify_train`].

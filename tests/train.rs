@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use wheelflat::bank::{self, Bank, GenerateOptions, Quiet, StorageFormat};
 use wheelflat::identify::{Identifier, Measurement};
-use wheelflat::model::{Calibration, CheckedCalibration, Flat, WheelPosition};
-use wheelflat::train::{self, TrainFlat, TrainSpec};
+use wheelflat::model::{Calibration, CheckedCalibration};
+use wheelflat::train::{self, TrainSpec};
 
 fn wheelflat() -> Command {
     Command::new(assert_cmd::cargo::cargo_bin("wheelflat"))
@@ -22,7 +22,7 @@ fn small_train_bank() -> &'static (PathBuf, CheckedCalibration) {
         c.output.window_samples = 600;
         c.population.length_mm = [40.0, 100.0];
         c.population.depth_mm = [0.25, 0.85];
-        c.population.curvature_mm = [0.0, 0.2];
+        c.population.curvature_mm = [0.0, 0.25];
         let cal = c.check().unwrap();
         let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("train-bank");
         let opts = GenerateOptions {
@@ -38,33 +38,13 @@ fn small_train_bank() -> &'static (PathBuf, CheckedCalibration) {
     })
 }
 
-fn flats() -> Vec<TrainFlat> {
-    vec![
-        TrainFlat {
-            bogie: 2,
-            wheel: WheelPosition::Leading,
-            flat: Flat::from_mm(60.0, 0.5, 0.1, 12.4).unwrap(),
-        },
-        TrainFlat {
-            bogie: 7,
-            wheel: WheelPosition::Trailing,
-            flat: Flat::from_mm(45.0, 0.3, 0.05, 13.5).unwrap(),
-        },
-        TrainFlat {
-            bogie: 11,
-            wheel: WheelPosition::Leading,
-            flat: Flat::from_mm(90.0, 0.8, 0.15, 14.0).unwrap(),
-        },
-    ]
-}
-
 #[test]
 fn flats_are_found_on_the_right_wheels_and_good_wheels_stay_good() {
     let (dir, cal) = small_train_bank();
     let bank = Bank::open(dir).unwrap();
     train::check_coverage(&bank, dir).unwrap();
     let id = Identifier::new(bank, cal.identification.clone()).unwrap();
-    let truth = flats();
+    let truth = train::default_flats();
     let syn = train::synthesize_train(cal, &TrainSpec::twelve_bogies(truth.clone(), 4)).unwrap();
     let m = Measurement::from_csv(Path::new("train.csv"), &syn.csv, 2500.0).unwrap();
     let times = train::read_triggers(Path::new("t.csv"), &syn.triggers_csv).unwrap();

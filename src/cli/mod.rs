@@ -1171,19 +1171,14 @@ fn parse_flat_on(text: &str, bogies: usize) -> Result<crate::train::TrainFlat> {
 }
 
 fn cmd_synth_train(a: &SynthArgs, cal: &CheckedCalibration) -> Result<()> {
-    let specs: Vec<String> = if a.flat_on.is_empty() {
-        vec![
-            "2:leading:60:0.5:0.1:12.4".into(),
-            "7:trailing:45:0.3:0.05:13.5".into(),
-            "11:leading:90:0.8:0.2:14.0".into(),
-        ]
+    let flats = if a.flat_on.is_empty() {
+        crate::train::default_flats()
     } else {
-        a.flat_on.clone()
+        a.flat_on
+            .iter()
+            .map(|t| parse_flat_on(t, a.bogies))
+            .collect::<Result<Vec<_>>>()?
     };
-    let flats = specs
-        .iter()
-        .map(|t| parse_flat_on(t, a.bogies))
-        .collect::<Result<Vec<_>>>()?;
     let mut spec = crate::train::TrainSpec::twelve_bogies(flats, a.seed);
     spec.bogies = a.bogies;
     let syn = crate::train::synthesize_train(cal, &spec)?;
