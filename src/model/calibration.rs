@@ -195,6 +195,63 @@ pub struct PopulationParams {
     pub flat_wheels: Option<Vec<WheelPosition>>,
 }
 
+/// A physical effect beyond the base model (issue #5's effect library), switched on by
+/// listing it under `[[effects]]` in the calibration. Each changes the simulation as its
+/// documentation says; the README lists the equations.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Effect {
+    /// The rail pad at one sleeper is stiffer or softer: `K_p → factor·K_p` there (a worn or
+    /// missing pad, a frozen one). The pad force there is `factor·K_p·(w − z_s) + C_p·(ẇ − ż_s)`.
+    PadStiffness {
+        /// Sleeper index k.
+        sleeper: usize,
+        /// Multiplier of the pad stiffness (> 0).
+        factor: f64,
+    },
+    /// The ballast under one sleeper is stiffer or softer: `K_b → factor·K_b` there.
+    BallastStiffness {
+        /// Sleeper index k.
+        sleeper: usize,
+        /// Multiplier of the ballast stiffness (> 0).
+        factor: f64,
+    },
+    /// A local dip of the rail head (dipped weld): both wheels see the extra drop
+    /// `z(x) = a/2·(1 + cos(2π(x − x_d)/ℓ))` for `|x − x_d| ≤ ℓ/2`, else 0.
+    RailDip {
+        /// Centre x_d (m).
+        position_m: f64,
+        /// Length ℓ (m).
+        length_m: f64,
+        /// Depth a (mm).
+        depth_mm: f64,
+    },
+    /// A periodic rail-head irregularity under both wheels: `z(x) = A·sin(2πx/λ)`.
+    RailIrregularity {
+        /// Wavelength λ (m).
+        wavelength_m: f64,
+        /// Amplitude A (mm).
+        amplitude_mm: f64,
+    },
+    /// An out-of-round wheel (polygonal wear): its radius is `R_w + A·cos(n·θ)`, θ = x/R_w the
+    /// rolling angle, so its centre drops by `z = −A·cos(n·x/R_w)`.
+    WheelOutOfRound {
+        /// The wheel.
+        wheel: WheelPosition,
+        /// Polygon order n (≥ 1).
+        order: u32,
+        /// Radius amplitude A (mm).
+        amplitude_mm: f64,
+    },
+    /// A sensor reads `factor` times the pad force (a calibration error of one sensor).
+    SensorGain {
+        /// Sensor name.
+        sensor: String,
+        /// Multiplier (> 0).
+        factor: f64,
+    },
+}
+
 /// Whether an uncertainty source scales with the force or is a fixed amount.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -322,6 +379,9 @@ pub struct Calibration {
     pub integration: IntegrationParams,
     /// Population ranges for the bank.
     pub population: PopulationParams,
+    /// Effects beyond the base model (none by default).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub effects: Vec<Effect>,
     /// Identification settings and the uncertainty table (not part of a bank's identity).
     #[serde(default)]
     pub identification: IdentificationParams,
@@ -400,6 +460,7 @@ impl Default for Calibration {
                 impact_position_m: [12.0, 13.0],
                 flat_wheels: None,
             },
+            effects: Vec::new(),
             identification: IdentificationParams::default(),
         }
     }
@@ -677,6 +738,57 @@ impl Calibration {
                     p.depth_mm[0] / 2.0
                 ),
             ));
+        }
+        for (i, e) in self.effects.iter().enumerate() {
+            let key = |name: &str| format!("effects[{i}].{name}");
+            let sleeper_ok = |k: usize| k >= 1 && k < t.bays;
+            match e {
+                Effect::PadStiffness { sleeper, factor }
+                | Effect::BallastStiffness { sleeper, factor } => {
+                    if !sleeper_ok(*sleeper) {
+                        return Err(invalid(
+                            &key("sleeper"),
+                            sleeper,
+                            &format!("a sleeper of the track, 1 to {}", t.bays - 1),
+                        ));
+                    }
+                    positive(&key("factor"), *factor)?;
+                }
+                Effect::RailDip {
+                    position_m,
+                    length_m,
+                    depth_mm,
+                } => {
+                    finite(&key("position_m"), *position_m)?;
+                    positive(&key("length_m"), *length_m)?;
+                    finite(&key("depth_mm"), *depth_mm)?;
+                }
+                Effect::RailIrregularity {
+                    wavelength_m,
+                    amplitude_mm,
+                } => {
+                    positive(&key("wavelength_m"), *wavelength_m)?;
+                    finite(&key("amplitude_mm"), *amplitude_mm)?;
+                }
+                Effect::WheelOutOfRound {
+                    order,
+                    amplitude_mm,
+                    ..
+                } => {
+                    positive(&key("order"), *order as f64)?;
+                    finite(&key("amplitude_mm"), *amplitude_mm)?;
+                }
+                Effect::SensorGain { sensor, factor } => {
+                    if !self.sensors.pad.iter().any(|p| &p.name == sensor) {
+                        return Err(invalid(
+                            &key("sensor"),
+                            sensor,
+                            "one of the calibration's sensors",
+                        ));
+                    }
+                    positive(&key("factor"), *factor)?;
+                }
+            }
         }
         let id = &self.identification;
         if !(id.phi > 0.0 && id.phi < 1.0) {

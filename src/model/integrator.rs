@@ -22,6 +22,7 @@
 
 use super::banded::{BandError, BandRows, BandedLdl};
 use super::calibration::CheckedCalibration;
+use super::calibration::Effect;
 use super::contact::{hertz_compression, solve_contact_pair};
 use super::flat::Flat;
 use super::track::{Support, TrackModel};
@@ -109,6 +110,39 @@ pub struct Record {
     pub contact: bool,
 }
 
+/// The drop of wheel `w`'s centre at position `x` due to effect `e` (m, downwards positive):
+/// rail dips and periodic irregularities under both wheels, out-of-roundness on its wheel.
+#[inline]
+fn irregularity(e: &Effect, w: usize, x: f64, wheel_radius: f64) -> f64 {
+    use std::f64::consts::TAU;
+    match e {
+        Effect::RailDip {
+            position_m,
+            length_m,
+            depth_mm,
+        } => {
+            let s = x - position_m;
+            if s.abs() <= length_m / 2.0 {
+                depth_mm * 1e-3 / 2.0 * (1.0 + (TAU * s / length_m).cos())
+            } else {
+                0.0
+            }
+        }
+        Effect::RailIrregularity {
+            wavelength_m,
+            amplitude_mm,
+        } => amplitude_mm * 1e-3 * (TAU * x / wavelength_m).sin(),
+        Effect::WheelOutOfRound {
+            wheel,
+            order,
+            amplitude_mm,
+        } if wheel.index() == w => {
+            -amplitude_mm * 1e-3 * (f64::from(*order) * x / wheel_radius).cos()
+        }
+        _ => 0.0,
+    }
+}
+
 /// Output of one run: pad forces at the output rate over the span of all sensor windows.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Response {
@@ -165,6 +199,8 @@ pub struct Simulator {
     c_entries: Vec<(usize, usize, f64)>,
     k_rows: BandRows,
     sensor_dofs: Vec<(usize, usize)>,
+    /// Gain of each sensor's reading (1 but for a `sensor_gain` effect).
+    sensor_gain: Vec<f64>,
     c_h: f64,
     speed: f64,
     wheel_start: [f64; 2],
@@ -200,6 +236,20 @@ impl Simulator {
                     .expect("checked calibration puts sensors on sleepers")
             })
             .collect();
+        let sensor_gain = cal
+            .sensors
+            .pad
+            .iter()
+            .map(|p| {
+                cal.effects
+                    .iter()
+                    .filter_map(|e| match e {
+                        Effect::SensorGain { sensor, factor } if *sensor == p.name => Some(*factor),
+                        _ => None,
+                    })
+                    .product()
+            })
+            .collect();
         let lead = cal.run.leading_wheel_start_m;
         let first_sample = (0..cal.sensors.pad.len())
             .map(|i| cal.window_start_sample(i))
@@ -220,6 +270,7 @@ impl Simulator {
             fine,
             c_entries,
             sensor_dofs,
+            sensor_gain,
         })
     }
 
@@ -288,13 +339,19 @@ impl Simulator {
         flat.wheel().unwrap_or(self.cal.vehicle.flat_wheel).index()
     }
 
-    /// Flat trajectory `z_tr` under each wheel at time `t`.
+    /// Wheel-centre drop `z_tr` under each wheel at positions `x`: the flat, plus the rail and
+    /// wheel irregularities of the calibration's effects.
     #[inline]
     fn trajectories(&self, flat: Option<&Flat>, x: [f64; 2]) -> [f64; 2] {
         let mut z = [0.0; 2];
         if let Some(f) = flat {
             let w = self.flat_wheel(f);
             z[w] = f.trajectory(x[w], self.wheel_radius);
+        }
+        for e in &self.cal.effects {
+            for (w, zw) in z.iter_mut().enumerate() {
+                *zw += irregularity(e, w, x[w], self.wheel_radius);
+            }
         }
         z
     }
@@ -503,6 +560,36 @@ impl Simulator {
         })
     }
 
+    /// Time windows (s) in which fine steps are taken around the rail dips of the effects:
+    /// from each wheel's arrival at a dip to its leaving it, widened like a strike's (none for
+    /// a dip of no depth).
+    fn dip_zones(&self) -> Vec<(f64, f64)> {
+        let integ = &self.cal.integration;
+        let mut zones = Vec::new();
+        for e in &self.cal.effects {
+            if let Effect::RailDip {
+                position_m,
+                length_m,
+                depth_mm,
+            } = e
+            {
+                // A dip of no depth changes nothing and needs no fine steps.
+                if depth_mm.abs() == 0.0 {
+                    continue;
+                }
+                for x0 in self.wheel_start {
+                    let t_in = (position_m - length_m / 2.0 - x0) / self.speed;
+                    let t_out = (position_m + length_m / 2.0 - x0) / self.speed;
+                    zones.push((
+                        t_in - integ.fine_before_strike_s,
+                        t_out + integ.fine_after_strike_s,
+                    ));
+                }
+            }
+        }
+        zones
+    }
+
     /// Time windows (s) in which fine steps are taken: around every strike of the flat.
     fn fine_zones(&self, flat: &Flat, t_end: f64) -> (Vec<f64>, Vec<(f64, f64)>) {
         let w = self.flat_wheel(flat);
@@ -551,10 +638,11 @@ impl Simulator {
         let dt_c = self.coarse.dt;
         let samples = self.end_sample - self.first_sample;
         let t_end = self.end_sample as f64 / self.cal.output.sample_rate_hz;
-        let (strike_times_s, zones) = match flat {
+        let (strike_times_s, mut zones) = match flat {
             Some(f) => self.fine_zones(f, t_end),
             None => (Vec::new(), Vec::new()),
         };
+        zones.extend(self.dip_zones());
 
         let mut resp = Response {
             sample_rate_hz: self.cal.output.sample_rate_hz,
@@ -573,8 +661,13 @@ impl Simulator {
             if k < self.first_sample || k >= self.end_sample {
                 return;
             }
-            for (out, &dofs) in resp.pad_force_n.iter_mut().zip(&self.sensor_dofs) {
-                out.push(self.track.pad_force(dofs, &state.u, &state.v));
+            for ((out, &dofs), gain) in resp
+                .pad_force_n
+                .iter_mut()
+                .zip(&self.sensor_dofs)
+                .zip(&self.sensor_gain)
+            {
+                out.push(gain * self.track.pad_force(dofs, &state.u, &state.v));
             }
             if let Some(c) = resp.contact_force_n.as_mut() {
                 c[0].push(state.contact_n[0]);

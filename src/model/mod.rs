@@ -11,6 +11,6 @@ pub mod integrator;
 pub mod track;
 pub mod vehicle;
 
-pub use calibration::{Calibration, CalibrationError, CheckedCalibration, WheelPosition};
+pub use calibration::{Calibration, CalibrationError, CheckedCalibration, Effect, WheelPosition};
 pub use flat::{Flat, FlatError};
 pub use integrator::{Level, Record, Response, SimError, Simulator, State, Workspace};

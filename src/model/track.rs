@@ -7,7 +7,7 @@
 //! (`w = ψ = 0`) and carry no DOFs. Displacements are positive downwards.
 
 use super::banded::BandedSym;
-use super::calibration::CheckedCalibration;
+use super::calibration::{CheckedCalibration, Effect};
 
 /// 4-point Gauss–Legendre rule on [0, 1]; exact for the degree-6 products below.
 const GAUSS4: [(f64, f64); 4] = [
@@ -210,7 +210,8 @@ pub struct TrackModel {
     node_psi: Vec<Option<usize>>,
     /// For sleeper k (1-based, index k−1): its own DOF (elastic supports only).
     sleeper_dof: Vec<Option<usize>>,
-    pad_stiffness: f64,
+    /// Pad stiffness by rail DOF (non-zero at the rail DOFs over sleepers).
+    pad_stiffness_at: Vec<f64>,
     pad_damping: f64,
     element_k: [[f64; 4]; 4],
 }
@@ -277,14 +278,35 @@ impl TrackModel {
                 }
             }
         }
+        let mut pad_stiffness_at = vec![0.0; n];
         for (idx, s) in sleeper_dof.iter().enumerate() {
             let (Some(s), Some(w)) = (*s, node_w[(idx + 1) * elements_per_bay]) else {
                 continue;
             };
+            // Effects that change one sleeper's pad or ballast stiffness.
+            let factor = |pick: fn(&Effect) -> Option<(usize, f64)>| {
+                cal.effects
+                    .iter()
+                    .filter_map(pick)
+                    .filter(|&(k, _)| k == idx + 1)
+                    .map(|(_, f)| f)
+                    .product::<f64>()
+            };
+            let kp = t.pad_stiffness_n_per_m
+                * factor(|e| match e {
+                    Effect::PadStiffness { sleeper, factor } => Some((*sleeper, *factor)),
+                    _ => None,
+                });
+            let kb = t.ballast_stiffness_n_per_m
+                * factor(|e| match e {
+                    Effect::BallastStiffness { sleeper, factor } => Some((*sleeper, *factor)),
+                    _ => None,
+                });
+            pad_stiffness_at[w] = kp;
             // Pad (Kelvin) between rail and sleeper, ballast (Kelvin) between sleeper and ground.
-            k.add(w, w, t.pad_stiffness_n_per_m);
-            k.add(s, s, t.pad_stiffness_n_per_m + t.ballast_stiffness_n_per_m);
-            k.add(s, w, -t.pad_stiffness_n_per_m);
+            k.add(w, w, kp);
+            k.add(s, s, kp + kb);
+            k.add(s, w, -kp);
             c.add(w, w, t.pad_damping_ns_per_m);
             c.add(s, s, t.pad_damping_ns_per_m + t.ballast_damping_ns_per_m);
             c.add(s, w, -t.pad_damping_ns_per_m);
@@ -300,7 +322,7 @@ impl TrackModel {
             node_w,
             node_psi,
             sleeper_dof,
-            pad_stiffness: t.pad_stiffness_n_per_m,
+            pad_stiffness_at,
             pad_damping: t.pad_damping_ns_per_m,
             element_k: ke,
         }
@@ -388,7 +410,7 @@ impl TrackModel {
     #[inline]
     pub fn pad_force(&self, dofs: (usize, usize), u: &[f64], v: &[f64]) -> f64 {
         let (w, s) = dofs;
-        self.pad_stiffness * (u[w] - u[s]) + self.pad_damping * (v[w] - v[s])
+        self.pad_stiffness_at[w] * (u[w] - u[s]) + self.pad_damping * (v[w] - v[s])
     }
 
     /// Load carried by the clamped ends `[left, right]` (N, in the same sense as a pad force:

@@ -1,0 +1,248 @@
+//! The effect library (issue #5), verified like the base model: neutral settings change
+//! nothing, static equilibrium still holds with a changed pad or ballast, a sensor gain
+//! scales exactly its sensor, and the irregularities act where, when and as much as their
+//! equations say. Tolerances are stated next to each assertion.
+
+use wheelflat::model::WheelPosition;
+use wheelflat::model::{
+    Calibration, CheckedCalibration, Effect, Flat, Record, Response, Simulator,
+};
+
+fn with(effects: Vec<Effect>) -> CheckedCalibration {
+    Calibration {
+        effects,
+        ..Default::default()
+    }
+    .check()
+    .unwrap()
+}
+
+fn run(effects: Vec<Effect>, flat: Option<&Flat>) -> Response {
+    Simulator::new(&with(effects))
+        .unwrap()
+        .run(flat, Record { contact: true })
+        .unwrap()
+}
+
+fn contact(r: &Response, w: usize) -> &[f64] {
+    &r.contact_force_n.as_ref().unwrap()[w]
+}
+
+fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn neutral_effects_change_nothing_bit_for_bit() {
+    let base = run(vec![], None);
+    for e in [
+        Effect::PadStiffness {
+            sleeper: 17,
+            factor: 1.0,
+        },
+        Effect::BallastStiffness {
+            sleeper: 17,
+            factor: 1.0,
+        },
+        Effect::SensorGain {
+            sensor: "rps3".into(),
+            factor: 1.0,
+        },
+        Effect::RailIrregularity {
+            wavelength_m: 0.5,
+            amplitude_mm: 0.0,
+        },
+        Effect::WheelOutOfRound {
+            wheel: WheelPosition::Leading,
+            order: 8,
+            amplitude_mm: 0.0,
+        },
+    ] {
+        let r = run(vec![e.clone()], None);
+        assert_eq!(r.pad_force_n, base.pad_force_n, "{e:?}");
+    }
+    // A dip of depth 0 is no dip: it adds no fine steps either.
+    let r = run(
+        vec![Effect::RailDip {
+            position_m: 10.2,
+            length_m: 0.3,
+            depth_mm: 0.0,
+        }],
+        None,
+    );
+    assert_eq!(r.pad_force_n, base.pad_force_n);
+}
+
+#[test]
+fn a_sensor_gain_scales_its_sensor_only() {
+    let base = run(vec![], None);
+    let r = run(
+        vec![Effect::SensorGain {
+            sensor: "rps3".into(),
+            factor: 1.1,
+        }],
+        None,
+    );
+    let i = 2; // rps3
+    for (s, (a, b)) in r.pad_force_n.iter().zip(&base.pad_force_n).enumerate() {
+        if s == i {
+            // Exact to round-off (1e-12 relative).
+            assert!(a
+                .iter()
+                .zip(b)
+                .all(|(x, y)| (x - 1.1 * y).abs() <= 1e-12 * y.abs().max(1.0)));
+        } else {
+            assert_eq!(a, b, "sensor {s}");
+        }
+    }
+}
+
+#[test]
+fn static_equilibrium_holds_with_a_changed_pad_or_ballast_and_the_stiffer_support_carries_more() {
+    let base_cal = with(vec![]);
+    let weight = 2.0 * base_cal.static_wheel_load_n();
+    let pad_share = |effects: Vec<Effect>| {
+        let cal = with(effects);
+        let sim = Simulator::new(&cal).unwrap();
+        // Bogie centre over sleeper 17 (wheels at ±1 m), far from the clamped ends.
+        let x = 17.0 * cal.track.sleeper_spacing_m;
+        let st = sim
+            .static_state(
+                [
+                    x + cal.vehicle.half_wheelbase_m,
+                    x - cal.vehicle.half_wheelbase_m,
+                ],
+                [0.0; 2],
+            )
+            .unwrap();
+        let zeros = vec![0.0; st.u.len()];
+        let pads: Vec<f64> = (1..cal.track.bays)
+            .map(|k| {
+                sim.track()
+                    .pad_force(sim.track().pad_dofs(k).unwrap(), &st.u, &zeros)
+            })
+            .collect();
+        let ends = sim.track().end_reactions(&st.u);
+        let total: f64 = pads.iter().sum::<f64>() + ends[0] + ends[1];
+        // Equilibrium to round-off (1e-9 relative), as for the base model.
+        assert!(
+            (total / weight - 1.0).abs() < 1e-9,
+            "pads + ends {total} vs {weight}"
+        );
+        pads[15] // sleeper 16, under the leading wheel's neighbourhood
+    };
+    let base = pad_share(vec![]);
+    let stiff_pad = pad_share(vec![Effect::PadStiffness {
+        sleeper: 16,
+        factor: 2.0,
+    }]);
+    let soft_pad = pad_share(vec![Effect::PadStiffness {
+        sleeper: 16,
+        factor: 0.5,
+    }]);
+    let soft_ballast = pad_share(vec![Effect::BallastStiffness {
+        sleeper: 16,
+        factor: 0.2,
+    }]);
+    println!("sleeper 16 load: base {base:.0} N, pad ×2 {stiff_pad:.0}, pad ×0.5 {soft_pad:.0}, ballast ×0.2 {soft_ballast:.0}");
+    assert!(stiff_pad > base && base > soft_pad && base > soft_ballast);
+    // A stiffer support attracts load, but less than in proportion (its neighbours share it).
+    assert!(stiff_pad < 2.0 * base && soft_pad > 0.5 * base);
+}
+
+#[test]
+fn a_periodic_irregularity_shakes_the_contact_force_at_v_over_lambda() {
+    let cal = with(vec![]);
+    let lambda = 0.4;
+    let base = run(vec![], None);
+    let r = run(
+        vec![Effect::RailIrregularity {
+            wavelength_m: lambda,
+            amplitude_mm: 0.05,
+        }],
+        None,
+    );
+    let d: Vec<f64> = contact(&r, 0)
+        .iter()
+        .zip(contact(&base, 0))
+        .map(|(a, b)| a - b)
+        .collect();
+    // Zero crossings of the force difference over the recorded span: two per wavelength run.
+    let crossings = d.windows(2).filter(|w| w[0] * w[1] < 0.0).count() as f64;
+    let span_m = d.len() as f64 / cal.output.sample_rate_hz * cal.speed_m_per_s();
+    let expected = 2.0 * span_m / lambda;
+    println!("crossings {crossings}, expected {expected:.1}");
+    // Within 5 % (the response also holds the track's own transients).
+    assert!(
+        (crossings / expected - 1.0).abs() < 0.05,
+        "{crossings} vs {expected}"
+    );
+}
+
+#[test]
+fn a_rail_dip_acts_where_it_lies_and_in_proportion_to_its_depth() {
+    let cal = with(vec![]);
+    let base = run(vec![], None);
+    let dip = |depth_mm| {
+        let r = run(
+            vec![Effect::RailDip {
+                position_m: 10.2,
+                length_m: 0.3,
+                depth_mm,
+            }],
+            None,
+        );
+        let d: Vec<f64> = contact(&r, 0)
+            .iter()
+            .zip(contact(&base, 0))
+            .map(|(a, b)| a - b)
+            .collect();
+        d
+    };
+    let (d1, d2) = (dip(0.05), dip(0.1));
+    let peak = |d: &[f64]| d.iter().copied().fold(0.0f64, |m, x| m.max(x.abs()));
+    let (p1, p2) = (peak(&d1), peak(&d2));
+    println!("dip 0.05 mm: {p1:.0} N, 0.1 mm: {p2:.0} N");
+    // Small dips, no loss of contact: linear to 5 %.
+    assert!((p2 / p1 - 2.0).abs() < 0.1, "{p2} / {p1}");
+    // Nothing happens before the leading wheel reaches the dip (1 N).
+    let t_arrive = (10.2 - 0.15 - cal.run.leading_wheel_start_m) / cal.speed_m_per_s();
+    let k_arrive = (t_arrive * cal.output.sample_rate_hz) as usize;
+    let first = base.first_sample;
+    let before = k_arrive.saturating_sub(first + 1);
+    assert!(
+        d2[..before].iter().all(|x| x.abs() < 1.0),
+        "force changed before the dip"
+    );
+}
+
+#[test]
+fn an_out_of_round_wheel_shakes_its_own_wheel_most() {
+    let base = run(vec![], None);
+    let r = run(
+        vec![Effect::WheelOutOfRound {
+            wheel: WheelPosition::Trailing,
+            order: 10,
+            amplitude_mm: 0.05,
+        }],
+        None,
+    );
+    let dev = |w| max_abs_diff(contact(&r, w), contact(&base, w));
+    let (lead, trail) = (dev(0), dev(1));
+    println!("contact force change: leading {lead:.0} N, trailing {trail:.0} N");
+    assert!(trail > 3.0 * lead, "trailing {trail} vs leading {lead}");
+    // The flat and the out-of-roundness add on the same wheel without error.
+    let flat = Flat::from_mm(40.0, 0.3, 0.0, 12.4).unwrap();
+    let both = run(
+        vec![Effect::WheelOutOfRound {
+            wheel: WheelPosition::Trailing,
+            order: 10,
+            amplitude_mm: 0.05,
+        }],
+        Some(&flat),
+    );
+    assert!(both.pad_force_n.iter().flatten().all(|v| v.is_finite()));
+}
