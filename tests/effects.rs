@@ -246,3 +246,54 @@ fn an_out_of_round_wheel_shakes_its_own_wheel_most() {
     );
     assert!(both.pad_force_n.iter().flatten().all(|v| v.is_finite()));
 }
+
+#[test]
+fn synth_hides_effects_and_names_bad_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.csv");
+    let bin = assert_cmd::cargo::cargo_bin("wheelflat");
+    let ok = std::process::Command::new(&bin)
+        .args([
+            "synth",
+            "--effect",
+            "pad_stiffness:sleeper=16,factor=0.5",
+            "--effect",
+        ])
+        .arg("wheel_out_of_round:wheel=leading,order=8,amplitude_mm=0.05")
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("m.truth.json")).unwrap())
+            .unwrap();
+    let effects = truth["effects"].as_array().unwrap();
+    assert_eq!(effects.len(), 2);
+    assert_eq!(effects[0]["kind"], "pad_stiffness");
+    assert_eq!(effects[1]["wheel"], "leading");
+    for (arg, expected) in [
+        ("pad_stiffnes:sleeper=16", "unknown variant `pad_stiffnes`"),
+        ("pad_stiffness:sleeper=16,factr=2", "unknown field `factr`"),
+        (
+            "pad_stiffness:sleeper=99,factor=2",
+            "`effects[0].sleeper` = 99: a sleeper of the track, 1 to 33",
+        ),
+    ] {
+        let bad = std::process::Command::new(&bin)
+            .args(["synth", "--effect", arg, "--out"])
+            .arg(dir.path().join("bad.csv"))
+            .output()
+            .unwrap();
+        let e = String::from_utf8_lossy(&bad.stderr);
+        assert!(!bad.status.success() && e.contains(expected), "{arg}: {e}");
+        assert!(
+            !dir.path().join("bad.csv").exists(),
+            "nothing written on error"
+        );
+    }
+}

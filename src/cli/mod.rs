@@ -190,6 +190,11 @@ struct SynthArgs {
     /// Bogies in the train.
     #[arg(long, default_value_t = 12, requires = "train")]
     bogies: usize,
+    /// Hide an effect of the library in the measurement: `KIND:KEY=VALUE,…`, e.g.
+    /// `pad_stiffness:sleeper=16,factor=0.5` or `wheel_out_of_round:wheel=leading,order=8,amplitude_mm=0.05`
+    /// (repeat for more; the keys are those of `[[effects]]` in the calibration).
+    #[arg(long = "effect")]
+    effects: Vec<String>,
     /// A flat on one wheel of the train: `BOGIE:WHEEL:L_MM:D_MM:C_MM:XP_M`, e.g.
     /// `3:leading:60:0.5:0.1:12.9` (repeat for more).
     #[arg(long = "flat-on", requires = "train")]
@@ -1213,8 +1218,34 @@ fn cmd_synth_train(a: &SynthArgs, cal: &CheckedCalibration) -> Result<()> {
     Ok(())
 }
 
+/// Parses `KIND:KEY=VALUE,…` into an effect (numbers as numbers, anything else as a string).
+fn parse_effect(text: &str) -> Result<crate::model::Effect> {
+    let (kind, rest) = text.split_once(':').unwrap_or((text, ""));
+    let mut doc = format!("kind = {:?}\n", kind.trim());
+    for pair in rest.split(',').filter(|p| !p.trim().is_empty()) {
+        let (k, v) = pair
+            .split_once('=')
+            .with_context(|| format!("--effect `{text}`: `{pair}` is not KEY=VALUE"))?;
+        let v = v.trim();
+        let value = if v.parse::<f64>().is_ok() {
+            v.to_string()
+        } else {
+            format!("{v:?}")
+        };
+        doc += &format!("{} = {value}\n", k.trim());
+    }
+    toml::from_str(&doc).with_context(|| format!("--effect `{text}`"))
+}
+
 fn cmd_synth(a: &SynthArgs) -> Result<()> {
-    let cal = load_calibration(a.calibration.as_deref())?;
+    let mut cal = load_calibration(a.calibration.as_deref())?;
+    if !a.effects.is_empty() {
+        let mut doc = cal.document().clone();
+        for e in &a.effects {
+            doc.effects.push(parse_effect(e)?);
+        }
+        cal = doc.check().context("the effects given with --effect")?;
+    }
     if a.train {
         return cmd_synth_train(a, &cal);
     }
@@ -1228,9 +1259,14 @@ fn cmd_synth(a: &SynthArgs) -> Result<()> {
     let json = serde_json::to_string_pretty(&syn.truth).expect("truth serialises");
     write_atomically(&truth_path, json.as_bytes())?;
     println!(
-        "synthetic measurement of {} (L0 {:.1} mm), seed {}: wrote {} and {}",
+        "synthetic measurement of {} (L0 {:.1} mm){}, seed {}: wrote {} and {}",
         flat_title(Some(&flat)),
         syn.truth.l0_mm,
+        if cal.effects.is_empty() {
+            String::new()
+        } else {
+            format!(" with hidden effects {:?}", cal.effects)
+        },
         a.seed,
         a.out.display(),
         truth_path.display()

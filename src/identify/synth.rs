@@ -38,6 +38,9 @@ pub struct Truth {
     pub shift_s: f64,
     /// Laser trigger time written to the file (file clock), if any.
     pub laser_trigger_s: Option<f64>,
+    /// Effects of the calibration simulated (hidden in the measurement, for diagnosis).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub effects: Vec<crate::model::Effect>,
 }
 
 /// A synthetic measurement: CSV text and its truth.
@@ -157,6 +160,7 @@ pub fn synthesize(
         gain_error: names.iter().cloned().zip(gain_error).collect(),
         shift_s,
         laser_trigger_s: laser,
+        effects: cal.effects.clone(),
     };
     Ok(Synthetic { csv, truth })
 }
