@@ -297,3 +297,60 @@ fn synth_hides_effects_and_names_bad_ones() {
         );
     }
 }
+
+#[test]
+fn a_time_offset_delays_every_sensor_and_no_offset_changes_nothing() {
+    let base = run(vec![], None);
+    let zero = run(vec![Effect::TimeOffset { offset_ms: 0.0 }], None);
+    assert_eq!(zero.pad_force_n, base.pad_force_n);
+    let speed0 = run(vec![Effect::SpeedDeviation { fraction: 0.0 }], None);
+    assert_eq!(speed0.pad_force_n, base.pad_force_n);
+    // One sample (0.4 ms) late: sample k reads the base's sample k − 1, exactly (the run is
+    // the same; only its recording starts earlier and ends later).
+    let late = run(vec![Effect::TimeOffset { offset_ms: 0.4 }], None);
+    assert_eq!(late.first_sample, base.first_sample);
+    for (a, b) in late.pad_force_n.iter().zip(&base.pad_force_n) {
+        assert_eq!(a.len(), b.len());
+        assert_eq!(&a[1..], &b[..b.len() - 1]);
+    }
+    // Half a sample: halfway between (linear interpolation, to round-off).
+    let half = run(vec![Effect::TimeOffset { offset_ms: 0.2 }], None);
+    for (a, b) in half.pad_force_n.iter().zip(&base.pad_force_n) {
+        for k in 1..a.len() {
+            let mid = 0.5 * (b[k - 1] + b[k]);
+            assert!(
+                (a[k] - mid).abs() < 1e-9 * mid.abs().max(1.0),
+                "{} vs {mid}",
+                a[k]
+            );
+        }
+    }
+}
+
+#[test]
+fn a_faster_train_aligned_on_its_trigger_passes_the_sensors_later() {
+    let cal = with(vec![]);
+    let base = run(vec![], None);
+    let fraction = 0.02;
+    let fast = run(vec![Effect::SpeedDeviation { fraction }], None);
+    // RPS5 (sleeper 15) is the sensor farthest from the laser: the leading wheel's peak there
+    // moves by (x_laser − x_rps5)·(1/v − 1/v') once both runs are aligned on the trigger.
+    let i = 4;
+    let v = cal.speed_m_per_s();
+    let d = cal.sensors.laser_trigger_m - cal.sensor_position_m(i);
+    let expected = d * (1.0 / v - 1.0 / (v * (1.0 + fraction))) * cal.output.sample_rate_hz;
+    let (b, f) = (&base.pad_force_n[i], &fast.pad_force_n[i]);
+    // The response spans all five windows; at RPS5 the leading wheel passes first, 2 m (0.14 s,
+    // 360 samples) before the trailing one: its peak is the largest of the first 500 samples.
+    let argmax = |s: &[f64]| {
+        s[..500]
+            .iter()
+            .enumerate()
+            .fold((0, f64::MIN), |m, (k, &x)| if x > m.1 { (k, x) } else { m })
+            .0 as f64
+    };
+    let moved = argmax(f) - argmax(b);
+    println!("leading-wheel peak at RPS5 moved {moved} samples, expected {expected:.1}");
+    // Within 1.5 samples (peaks are found on the 0.4 ms grid).
+    assert!((moved - expected).abs() <= 1.5, "{moved} vs {expected}");
+}

@@ -250,6 +250,18 @@ pub enum Effect {
         /// Multiplier (> 0).
         factor: f64,
     },
+    /// The recording's clock is off: every sensor reads `F(t − τ)` (a late laser trigger, a
+    /// data-logger delay).
+    TimeOffset {
+        /// τ (ms), positive: the signals arrive late.
+        offset_ms: f64,
+    },
+    /// The train runs at `(1 + fraction)·v`. The recording stays aligned on the leading
+    /// wheel's laser trigger, so the output is also delayed by `(x_laser − x_0)·(1/v − 1/v')`.
+    SpeedDeviation {
+        /// Relative speed change, |fraction| < 0.5.
+        fraction: f64,
+    },
 }
 
 /// Whether an uncertainty source scales with the force or is a fixed amount.
@@ -777,6 +789,13 @@ impl Calibration {
                 } => {
                     positive(&key("order"), *order as f64)?;
                     finite(&key("amplitude_mm"), *amplitude_mm)?;
+                }
+                Effect::TimeOffset { offset_ms } => finite(&key("offset_ms"), *offset_ms)?,
+                Effect::SpeedDeviation { fraction } => {
+                    finite(&key("fraction"), *fraction)?;
+                    if fraction.abs() >= 0.5 {
+                        return Err(invalid(&key("fraction"), fraction, "|fraction| < 0.5"));
+                    }
                 }
                 Effect::SensorGain { sensor, factor } => {
                     if !self.sensors.pad.iter().any(|p| &p.name == sensor) {

@@ -207,6 +207,9 @@ pub struct Simulator {
     wheel_radius: f64,
     first_sample: usize,
     end_sample: usize,
+    /// Output delay τ (s): the series read `F(t − τ)` (time-offset and speed-deviation
+    /// effects; 0 otherwise).
+    output_delay_s: f64,
 }
 
 impl Simulator {
@@ -255,9 +258,26 @@ impl Simulator {
             .map(|i| cal.window_start_sample(i))
             .min()
             .unwrap_or(0);
+        // Speed and output delay of the clock effects.
+        let nominal = cal.speed_m_per_s();
+        let mut speed = nominal;
+        let mut output_delay_s = 0.0;
+        for e in &cal.effects {
+            match e {
+                Effect::TimeOffset { offset_ms } => output_delay_s += offset_ms * 1e-3,
+                Effect::SpeedDeviation { fraction } => {
+                    let actual = nominal * (1.0 + fraction);
+                    output_delay_s +=
+                        (cal.sensors.laser_trigger_m - lead) * (1.0 / nominal - 1.0 / actual);
+                    speed = actual;
+                }
+                _ => {}
+            }
+        }
         Ok(Simulator {
             c_h: cal.hertz_constant(),
-            speed: cal.speed_m_per_s(),
+            speed,
+            output_delay_s,
             wheel_start: [lead, lead - 2.0 * cal.vehicle.half_wheelbase_m],
             wheel_radius: cal.vehicle.wheel_radius_m,
             first_sample,
@@ -636,8 +656,19 @@ impl Simulator {
         let nc = self.cal.integration.coarse_steps_per_sample;
         let nf = self.cal.integration.fine_steps_per_coarse;
         let dt_c = self.coarse.dt;
-        let samples = self.end_sample - self.first_sample;
-        let t_end = self.end_sample as f64 / self.cal.output.sample_rate_hz;
+        let rate = self.cal.output.sample_rate_hz;
+        // With an output delay, record a margin on both sides and resample at the end.
+        let margin = if self.output_delay_s.abs() > 0.0 {
+            (self.output_delay_s.abs() * rate).ceil() as usize + 1
+        } else {
+            0
+        };
+        let (rec_first, rec_end) = (
+            self.first_sample.saturating_sub(margin),
+            self.end_sample + margin,
+        );
+        let samples = rec_end - rec_first;
+        let t_end = rec_end as f64 / rate;
         let (strike_times_s, mut zones) = match flat {
             Some(f) => self.fine_zones(f, t_end),
             None => (Vec::new(), Vec::new()),
@@ -645,8 +676,8 @@ impl Simulator {
         zones.extend(self.dip_zones());
 
         let mut resp = Response {
-            sample_rate_hz: self.cal.output.sample_rate_hz,
-            first_sample: self.first_sample,
+            sample_rate_hz: rate,
+            first_sample: rec_first,
             pad_force_n: vec![Vec::with_capacity(samples); self.sensor_dofs.len()],
             contact_force_n: record
                 .contact
@@ -658,7 +689,7 @@ impl Simulator {
         };
         let mut state = self.initial_state(flat)?;
         let observe = |state: &State, k: usize, resp: &mut Response| {
-            if k < self.first_sample || k >= self.end_sample {
+            if k < rec_first || k >= rec_end {
                 return;
             }
             for ((out, &dofs), gain) in resp
@@ -683,7 +714,7 @@ impl Simulator {
                 }
             }
         };
-        let total_coarse = self.end_sample * nc;
+        let total_coarse = rec_end * nc;
         let dt_f = self.fine.dt;
         for j in 0..total_coarse {
             let (t0, t1) = (j as f64 * dt_c, (j + 1) as f64 * dt_c);
@@ -711,6 +742,31 @@ impl Simulator {
                 observe(&state, (j + 1) / nc, &mut resp);
             }
         }
+        if margin > 0 {
+            self.delay_output(&mut resp);
+        }
         Ok(resp)
+    }
+
+    /// Resamples a response recorded with margins onto the sensor windows, delayed by the
+    /// output delay τ: sample k reads the recorded series at `k/rate − τ` (linear
+    /// interpolation; before the first recorded sample, the first value).
+    fn delay_output(&self, resp: &mut Response) {
+        let rate = resp.sample_rate_hz;
+        let shift = |series: &[f64]| -> Vec<f64> {
+            (self.first_sample..self.end_sample)
+                .map(|k| {
+                    let pos = k as f64 - self.output_delay_s * rate - resp.first_sample as f64;
+                    let i = pos.floor().clamp(0.0, (series.len() - 2) as f64) as usize;
+                    let f = (pos - i as f64).clamp(0.0, 1.0);
+                    series[i] * (1.0 - f) + series[i + 1] * f
+                })
+                .collect()
+        };
+        resp.pad_force_n = resp.pad_force_n.iter().map(|s| shift(s)).collect();
+        if let Some(c) = resp.contact_force_n.as_mut() {
+            *c = [shift(&c[0]), shift(&c[1])];
+        }
+        resp.first_sample = self.first_sample;
     }
 }
