@@ -256,6 +256,18 @@ pub enum Effect {
         /// τ (ms), positive: the signals arrive late.
         offset_ms: f64,
     },
+    /// The car body bounces on its secondary suspension instead of resting as a constant load:
+    /// the load on the bogie centre is `M_c·g·(1 + a·sin(2πf·t + φ))`. Over the second or so
+    /// that the windows span, the bounce, driven by the track long before the sensors, is
+    /// taken as this steady oscillation.
+    CarBodyBounce {
+        /// Relative amplitude a of the load (0 ≤ a < 1).
+        amplitude: f64,
+        /// Bounce frequency f (Hz).
+        frequency_hz: f64,
+        /// Phase φ at t = 0 (degrees).
+        phase_deg: f64,
+    },
     /// The train runs at `(1 + fraction)·v`. The recording stays aligned on the leading
     /// wheel's laser trigger, so the output is also delayed by `(x_laser − x_0)·(1/v − 1/v')`.
     SpeedDeviation {
@@ -791,6 +803,18 @@ impl Calibration {
                     finite(&key("amplitude_mm"), *amplitude_mm)?;
                 }
                 Effect::TimeOffset { offset_ms } => finite(&key("offset_ms"), *offset_ms)?,
+                Effect::CarBodyBounce {
+                    amplitude,
+                    frequency_hz,
+                    phase_deg,
+                } => {
+                    non_negative(&key("amplitude"), *amplitude)?;
+                    if *amplitude >= 1.0 {
+                        return Err(invalid(&key("amplitude"), amplitude, "below 1"));
+                    }
+                    positive(&key("frequency_hz"), *frequency_hz)?;
+                    finite(&key("phase_deg"), *phase_deg)?;
+                }
                 Effect::SpeedDeviation { fraction } => {
                     finite(&key("fraction"), *fraction)?;
                     if fraction.abs() >= 0.5 {

@@ -26,7 +26,7 @@ use super::calibration::Effect;
 use super::contact::{hertz_compression, solve_contact_pair};
 use super::flat::Flat;
 use super::track::{Support, TrackModel};
-use super::vehicle::{mul4, wheel, VehicleModel};
+use super::vehicle::{mul4, wheel, VehicleModel, BOUNCE};
 use thiserror::Error;
 
 /// Errors of the simulator.
@@ -354,6 +354,29 @@ impl Simulator {
         ]
     }
 
+    /// The car body's load beyond `M_c·g` at time `t` (car-body bounce effects; 0 otherwise).
+    #[inline]
+    fn body_bounce_n(&self, t: f64) -> f64 {
+        let v = &self.cal.vehicle;
+        self.cal
+            .effects
+            .iter()
+            .map(|e| match e {
+                Effect::CarBodyBounce {
+                    amplitude,
+                    frequency_hz,
+                    phase_deg,
+                } => {
+                    v.car_body_mass_kg
+                        * v.gravity_m_per_s2
+                        * amplitude
+                        * (std::f64::consts::TAU * frequency_hz * t + phase_deg.to_radians()).sin()
+                }
+                _ => 0.0,
+            })
+            .sum()
+    }
+
     /// Index of the wheel carrying `flat`: its own, else the calibration's.
     fn flat_wheel(&self, flat: &Flat) -> usize {
         flat.wheel().unwrap_or(self.cal.vehicle.flat_wheel).index()
@@ -458,7 +481,9 @@ impl Simulator {
         let vt_v: [f64; 4] = std::array::from_fn(|i| state.qd[i] + g * state.qdd[i]);
         let ku = mul4(&self.vehicle.k, &ut_v);
         let cv = mul4(&self.vehicle.c, &vt_v);
-        let rv: [f64; 4] = std::array::from_fn(|i| self.vehicle.load[i] - ku[i] - cv[i]);
+        let mut load = self.vehicle.load;
+        load[BOUNCE] += self.body_bounce_n(state.time_s + dt);
+        let rv: [f64; 4] = std::array::from_fn(|i| load[i] - ku[i] - cv[i]);
         let av_free = mul4(&lv.veh_inv, &rv);
 
         // Contact: free compression and the 2×2 compliance over the step.
