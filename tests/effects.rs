@@ -434,3 +434,108 @@ fn a_car_body_bounce_reaches_the_wheels_as_a_one_mass_oscillator_says() {
     // Little else in the extra load: a start-up remainder under 3 % of the bounce.
     assert!(residual < 0.03 * amp, "residual {residual} N");
 }
+
+/// Static state with the bogie centred over sleeper 17 (wheels at ±1 m).
+fn centred_static(cal: &CheckedCalibration) -> (Simulator, wheelflat::model::State) {
+    let sim = Simulator::new(cal).unwrap();
+    let x = 17.0 * cal.track.sleeper_spacing_m;
+    let hb = cal.vehicle.half_wheelbase_m;
+    let st = sim.static_state([x + hb, x - hb], [0.0; 2]).unwrap();
+    (sim, st)
+}
+
+fn pad_forces(sim: &Simulator, st: &wheelflat::model::State) -> Vec<f64> {
+    let cal = sim.calibration();
+    let zeros = vec![0.0; st.u.len()];
+    (1..cal.track.bays)
+        .map(|k| {
+            sim.track()
+                .pad_force(sim.track().pad_dofs(k).unwrap(), &st.u, &zeros)
+        })
+        .collect()
+}
+
+#[test]
+fn a_voided_sleeper_hangs_from_the_rail_until_its_gap_closes() {
+    let base = with(vec![]);
+    let weight = 2.0 * base.static_wheel_load_n();
+    let (bs, bst) = centred_static(&base);
+    let base_pads = pad_forces(&bs, &bst);
+    let check = |gap_mm: f64| {
+        let cal = with(vec![Effect::VoidedSleeper {
+            sleeper: 17,
+            gap_mm,
+        }]);
+        let (sim, st) = centred_static(&cal);
+        let pads = pad_forces(&sim, &st);
+        let ends = sim.track().end_reactions(&st.u);
+        let total: f64 = pads.iter().sum::<f64>() + ends[0] + ends[1];
+        // Equilibrium to 1e-9: the pads still carry the whole weight into the sleepers.
+        assert!(
+            (total / weight - 1.0).abs() < 1e-9,
+            "gap {gap_mm}: {total} vs {weight}"
+        );
+        (pads, st.u[sim.track().pad_dofs(17).unwrap().1])
+    };
+    // Gap 0 under a loaded sleeper: the ballast is in contact, the same as the linear track
+    // to round-off.
+    let (p0, _) = check(0.0);
+    for (a, b) in p0.iter().zip(&base_pads) {
+        assert!((a - b).abs() < 1e-6 * weight, "{a} vs {b}");
+    }
+    // A gap the sleeper never closes: it hangs from the rail and its pad carries nothing (no
+    // sleeper weight in the model), its neighbours take the load.
+    let (p10, z10) = check(10.0);
+    println!(
+        "gap 10 mm: sleeper 17 pad {:.1} N (base {:.0} N), sleeper down {:.3} mm",
+        p10[16],
+        base_pads[16],
+        z10 * 1e3
+    );
+    assert!(p10[16].abs() < 1e-6 * weight);
+    assert!(p10[15] > base_pads[15] && p10[17] > base_pads[17]);
+    // A small gap that closes: the sleeper comes down through it and rests on the ballast,
+    // carrying less than before.
+    let (p01, z01) = check(0.1);
+    println!(
+        "gap 0.1 mm: sleeper 17 pad {:.0} N, sleeper down {:.3} mm",
+        p01[16],
+        z01 * 1e3
+    );
+    assert!(z01 > 0.1e-3 && p01[16] > 0.0 && p01[16] < base_pads[16]);
+}
+
+#[test]
+fn a_voided_sleeper_under_a_sensor_shows_in_its_pad_force_and_converges_in_time() {
+    let run_dt = |effects: Vec<Effect>, coarse_per_sample: usize| {
+        let mut c = Calibration {
+            effects,
+            ..Default::default()
+        };
+        c.integration.coarse_steps_per_sample = coarse_per_sample;
+        Simulator::new(&c.check().unwrap())
+            .unwrap()
+            .run(None, Record::default())
+            .unwrap()
+    };
+    let void = vec![Effect::VoidedSleeper {
+        sleeper: 17,
+        gap_mm: 0.3,
+    }];
+    let base = run_dt(vec![], 1);
+    let coarse = run_dt(void.clone(), 1);
+    let fine = run_dt(void, 2);
+    let i = 2; // rps3 sits on sleeper 17
+    let peak = |s: &[f64]| s.iter().copied().fold(f64::MIN, f64::max);
+    let (pb, pc, pf) = (
+        peak(&base.pad_force_n[i]),
+        peak(&coarse.pad_force_n[i]),
+        peak(&fine.pad_force_n[i]),
+    );
+    println!("rps3 peak: base {pb:.0} N, voided {pc:.0} N (dt/2: {pf:.0} N)");
+    // The hanging sleeper carries visibly less at its pad (more than 10 %).
+    assert!(pc < 0.9 * pb, "{pc} vs {pb}");
+    // The unilateral ballast is explicit in one term: halving dt moves the peak by < 1 %.
+    assert!((pc / pf - 1.0).abs() < 0.01, "{pc} vs {pf}");
+    assert!(coarse.pad_force_n.iter().flatten().all(|v| v.is_finite()));
+}

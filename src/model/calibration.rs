@@ -201,6 +201,15 @@ pub struct PopulationParams {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Effect {
+    /// A voided (hanging) sleeper: a gap g opens between sleeper k and its ballast, which
+    /// pushes back only once the sleeper has come down through the gap:
+    /// `F_b = K_b·(z_s − g) + C_b·ż_s` for `z_s > g`, else 0 (z downwards).
+    VoidedSleeper {
+        /// Sleeper index k.
+        sleeper: usize,
+        /// Gap g (mm, ≥ 0).
+        gap_mm: f64,
+    },
     /// The rail pad at one sleeper is stiffer or softer: `K_p → factor·K_p` there (a worn or
     /// missing pad, a frozen one). The pad force there is `factor·K_p·(w − z_s) + C_p·(ẇ − ż_s)`.
     PadStiffness {
@@ -767,6 +776,16 @@ impl Calibration {
             let key = |name: &str| format!("effects[{i}].{name}");
             let sleeper_ok = |k: usize| k >= 1 && k < t.bays;
             match e {
+                Effect::VoidedSleeper { sleeper, gap_mm } => {
+                    if !sleeper_ok(*sleeper) {
+                        return Err(invalid(
+                            &key("sleeper"),
+                            sleeper,
+                            &format!("a sleeper of the track, 1 to {}", t.bays - 1),
+                        ));
+                    }
+                    non_negative(&key("gap_mm"), *gap_mm)?;
+                }
                 Effect::PadStiffness { sleeper, factor }
                 | Effect::BallastStiffness { sleeper, factor } => {
                     if !sleeper_ok(*sleeper) {

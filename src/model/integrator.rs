@@ -414,7 +414,46 @@ impl Simulator {
                 }
             }
         }
-        self.track.k.factor()?.solve_in_place(&mut u);
+        let ldl = self.track.k.factor()?;
+        ldl.solve_in_place(&mut u);
+        // Voided sleepers: where a sleeper comes down through its gap, its ballast pushes back
+        // K_b·(z − g). One unilateral spring is solved exactly through its own compliance;
+        // several are swept until they agree.
+        if !self.track.voided.is_empty() {
+            let columns: Vec<Vec<f64>> = self
+                .track
+                .voided
+                .iter()
+                .map(|&(sd, ..)| {
+                    let mut e = vec![0.0; n];
+                    e[sd] = 1.0;
+                    ldl.solve_in_place(&mut e);
+                    e
+                })
+                .collect();
+            let mut forces = vec![0.0; columns.len()];
+            for _sweep in 0..50 {
+                let mut changed = 0.0f64;
+                for (j, &(sd, gap, kb, _)) in self.track.voided.iter().enumerate() {
+                    let c = columns[j][sd];
+                    // Displacement without this spring's current force.
+                    let z0 = u[sd] + forces[j] * c;
+                    let f = if z0 > gap {
+                        kb * ((z0 + c * kb * gap) / (1.0 + c * kb) - gap)
+                    } else {
+                        0.0
+                    };
+                    for (ui, ci) in u.iter_mut().zip(&columns[j]) {
+                        *ui -= (f - forces[j]) * ci;
+                    }
+                    changed = changed.max((f - forces[j]).abs());
+                    forces[j] = f;
+                }
+                if changed <= 1e-9 * w {
+                    break;
+                }
+            }
+        }
         let delta = hertz_compression(self.c_h, w);
         let wheels: [f64; 2] = std::array::from_fn(|i| {
             let rail =
@@ -472,6 +511,11 @@ impl Simulator {
         }
         for r in ws.r.iter_mut() {
             *r = -*r;
+        }
+        // Voided sleepers: their unilateral ballast at the predicted state (explicit in this
+        // one term; the rest of the step stays implicit).
+        for &(sd, gap, kb, cb) in &self.track.voided {
+            ws.r[sd] -= TrackModel::voided_ballast_force(kb, cb, gap, ut[sd], ws.vt[sd]);
         }
         lv.ldl.solve_in_place(&mut ws.r); // ws.r = a*
 

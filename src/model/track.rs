@@ -210,6 +210,10 @@ pub struct TrackModel {
     node_psi: Vec<Option<usize>>,
     /// For sleeper k (1-based, index k−1): its own DOF (elastic supports only).
     sleeper_dof: Vec<Option<usize>>,
+    /// Voided sleepers: (sleeper DOF, gap (m), ballast stiffness, ballast damping). Their
+    /// ballast is left out of `k` and `c` and acts as a unilateral support (see
+    /// [`TrackModel::voided_ballast_force`]).
+    pub voided: Vec<(usize, f64, f64, f64)>,
     /// Pad stiffness by rail DOF (non-zero at the rail DOFs over sleepers).
     pad_stiffness_at: Vec<f64>,
     pad_damping: f64,
@@ -279,6 +283,7 @@ impl TrackModel {
             }
         }
         let mut pad_stiffness_at = vec![0.0; n];
+        let mut voided = Vec::new();
         for (idx, s) in sleeper_dof.iter().enumerate() {
             let (Some(s), Some(w)) = (*s, node_w[(idx + 1) * elements_per_bay]) else {
                 continue;
@@ -303,12 +308,26 @@ impl TrackModel {
                     _ => None,
                 });
             pad_stiffness_at[w] = kp;
-            // Pad (Kelvin) between rail and sleeper, ballast (Kelvin) between sleeper and ground.
+            let gap = cal.effects.iter().find_map(|e| match e {
+                Effect::VoidedSleeper { sleeper, gap_mm } if *sleeper == idx + 1 => {
+                    Some(gap_mm * 1e-3)
+                }
+                _ => None,
+            });
+            // Pad (Kelvin) between rail and sleeper, ballast (Kelvin) between sleeper and
+            // ground; a voided sleeper's ballast is unilateral and stays out of the matrices.
+            let (kb_lin, cb_lin) = match gap {
+                Some(g) => {
+                    voided.push((s, g, kb, t.ballast_damping_ns_per_m));
+                    (0.0, 0.0)
+                }
+                None => (kb, t.ballast_damping_ns_per_m),
+            };
             k.add(w, w, kp);
-            k.add(s, s, kp + kb);
+            k.add(s, s, kp + kb_lin);
             k.add(s, w, -kp);
             c.add(w, w, t.pad_damping_ns_per_m);
-            c.add(s, s, t.pad_damping_ns_per_m + t.ballast_damping_ns_per_m);
+            c.add(s, s, t.pad_damping_ns_per_m + cb_lin);
             c.add(s, w, -t.pad_damping_ns_per_m);
             m.add(s, s, t.sleeper_mass_kg);
         }
@@ -322,6 +341,7 @@ impl TrackModel {
             node_w,
             node_psi,
             sleeper_dof,
+            voided,
             pad_stiffness_at,
             pad_damping: t.pad_damping_ns_per_m,
             element_k: ke,
@@ -403,6 +423,18 @@ impl TrackModel {
             .copied()
             .flatten()?;
         Some((w, s))
+    }
+
+    /// The upward force of a voided sleeper's ballast on the sleeper (N, ≥ 0) at sleeper
+    /// displacement `z` and velocity `zd` (downwards positive): `K_b·(z − g) + C_b·ż` once the
+    /// gap is closed (never pulling), else 0.
+    #[inline]
+    pub fn voided_ballast_force(kb: f64, cb: f64, gap: f64, z: f64, zd: f64) -> f64 {
+        if z > gap {
+            (kb * (z - gap) + cb * zd).max(0.0)
+        } else {
+            0.0
+        }
     }
 
     /// Rail-pad force at sleeper `k`, MODEL.md §6:
