@@ -16,6 +16,7 @@ pub mod atomic;
 pub mod audit;
 pub mod bank;
 pub mod cli;
+pub mod diagnose;
 pub mod identify;
 pub mod model;
 pub mod report;

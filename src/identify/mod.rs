@@ -198,6 +198,12 @@ impl Identifier {
         &self.settings
     }
 
+    /// Thresholds `[low, high]` on `prediction − measurement` (kN) where the measured force is
+    /// `y_kn`, holding probability `p` (the combined uncertainty of the settings).
+    pub fn thresholds(&self, y_kn: f64, p: f64) -> (f64, f64) {
+        self.uncertainty.thresholds(y_kn, p)
+    }
+
     /// The bank's resolution as falsification uses it (`None` when switched off).
     pub fn resolution(&self) -> Option<Resolution<'_>> {
         (self.settings.bank_resolution > 0.0).then_some(Resolution {
