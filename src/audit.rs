@@ -134,11 +134,7 @@ impl<'a> Resimulator<'a> {
         ws: &mut Workspace,
     ) -> Result<Vec<Vec<f32>>, AuditError> {
         let [l, d, c, xp, _, wheel] = stored.parameters;
-        let wheel = if wheel < 0.5 {
-            WheelPosition::Leading
-        } else {
-            WheelPosition::Trailing
-        };
+        let wheel = WheelPosition::from_code(wheel as u8);
         let flat = Flat::from_mm(l, d, c, xp)
             .map_err(|e| AuditError::Parameters {
                 instance: stored.instance,

@@ -338,7 +338,7 @@ pub fn check_coverage(bank: &Bank, dir: &Path) -> Result<(), IdentifyError> {
         dir.display(),
         wheels
             .iter()
-            .map(|w| format!("{w:?}").to_lowercase())
+            .map(|w| w.name())
             .collect::<Vec<_>>()
             .join(" and "),
         if wheels.len() > 1 { "s" } else { "" },
@@ -517,7 +517,7 @@ pub fn table_csv(r: &TrainResult) -> String {
             "{},{},{},{},{lo},{hi},{},{}\n",
             w.car,
             w.bogie,
-            format!("{:?}", w.wheel).to_lowercase(),
+            w.wheel.name(),
             w.flat,
             w.cms_count,
             w.severity
@@ -540,7 +540,7 @@ pub fn table_text(r: &TrainResult) -> String {
             "{:<4} {:<6} {:<9} {:<8} {:<16} {:>7}  {}\n",
             w.car,
             w.bogie,
-            format!("{:?}", w.wheel).to_lowercase(),
+            w.wheel.name(),
             w.flat,
             l0,
             w.cms_count,
@@ -576,7 +576,7 @@ pub fn table_html(r: &TrainResult) -> String {
             esc(&w.severity),
             w.car,
             w.bogie,
-            format!("{:?}", w.wheel).to_lowercase(),
+            w.wheel.name(),
             esc(&w.flat),
             w.cms_count,
             esc(&w.severity)

@@ -966,7 +966,7 @@ fn cmd_audit(a: &AuditArgs) -> Result<()> {
         .with_context(|| format!("cannot open bank {}", a.bank.display()))?;
     let stored = b.read_instance(a.instance)?;
     let [l, d, c, xp, l0, wheel] = stored.parameters;
-    let wheel = if wheel < 0.5 { "leading" } else { "trailing" };
+    let wheel = crate::model::WheelPosition::from_code(wheel as u8).name();
     println!(
         "instance {}: L {l:.2} mm, d {d:.4} mm, c {c:.4} mm, X_p {xp:.4} m, L0 {l0:.1} mm, on the {wheel} wheel",
         stored.instance
@@ -1202,12 +1202,7 @@ fn cmd_synth_train(a: &SynthArgs, cal: &CheckedCalibration) -> Result<()> {
         syn.truth
             .flats
             .iter()
-            .map(|f| format!(
-                "bogie {} {} (L0 {:.1} mm)",
-                f.0,
-                format!("{:?}", f.1).to_lowercase(),
-                f.6
-            ))
+            .map(|f| format!("bogie {} {} (L0 {:.1} mm)", f.0, f.1.name(), f.6))
             .collect::<Vec<_>>()
             .join(", "),
         a.seed,

@@ -137,15 +137,6 @@ fn ranges_of(
     })
 }
 
-/// The wheel of a stored wheel code (0 leading, 1 trailing).
-pub(crate) fn wheel_of(code: u8) -> WheelPosition {
-    if code == 0 {
-        WheelPosition::Leading
-    } else {
-        WheelPosition::Trailing
-    }
-}
-
 /// The distinct wheels among stored wheel codes, leading first.
 fn wheels_of(codes: impl Iterator<Item = u8>) -> Vec<WheelPosition> {
     let mut seen = [false; 2];
@@ -166,7 +157,7 @@ fn instance(params: &Parameters, k: usize) -> InstanceParams {
         curvature_mm: params.curvature_mm[k],
         impact_position_m: params.impact_position_m[k],
         l0_mm: params.l0_mm[k],
-        flat_wheel: wheel_of(params.flat_wheel[k]),
+        flat_wheel: WheelPosition::from_code(params.flat_wheel[k]),
     }
 }
 
@@ -527,7 +518,7 @@ impl Identifier {
                 let members: Vec<usize> = cms_idx
                     .iter()
                     .map(|&k| k as usize)
-                    .filter(|&k| wheel_of(self.params.flat_wheel[k]) == wheel)
+                    .filter(|&k| WheelPosition::from_code(self.params.flat_wheel[k]) == wheel)
                     .collect();
                 Some(WheelRanges {
                     wheel,

@@ -79,6 +79,23 @@ impl WheelPosition {
             WheelPosition::Trailing => 1,
         }
     }
+
+    /// The wheel of a stored code (the bank's `flat_wheel` column): 0 leading, else trailing.
+    pub fn from_code(code: u8) -> WheelPosition {
+        if code == 0 {
+            WheelPosition::Leading
+        } else {
+            WheelPosition::Trailing
+        }
+    }
+
+    /// The name people and files use: `leading` or `trailing`.
+    pub fn name(self) -> &'static str {
+        match self {
+            WheelPosition::Leading => "leading",
+            WheelPosition::Trailing => "trailing",
+        }
+    }
 }
 
 /// Pitch-plane half bogie (MODEL.md §3).
@@ -774,27 +791,25 @@ impl Calibration {
         }
         for (i, e) in self.effects.iter().enumerate() {
             let key = |name: &str| format!("effects[{i}].{name}");
-            let sleeper_ok = |k: usize| k >= 1 && k < t.bays;
+            let on_track = |k: usize| {
+                if (1..t.bays).contains(&k) {
+                    Ok(())
+                } else {
+                    Err(invalid(
+                        &key("sleeper"),
+                        k,
+                        &format!("a sleeper of the track, 1 to {}", t.bays - 1),
+                    ))
+                }
+            };
             match e {
                 Effect::VoidedSleeper { sleeper, gap_mm } => {
-                    if !sleeper_ok(*sleeper) {
-                        return Err(invalid(
-                            &key("sleeper"),
-                            sleeper,
-                            &format!("a sleeper of the track, 1 to {}", t.bays - 1),
-                        ));
-                    }
+                    on_track(*sleeper)?;
                     non_negative(&key("gap_mm"), *gap_mm)?;
                 }
                 Effect::PadStiffness { sleeper, factor }
                 | Effect::BallastStiffness { sleeper, factor } => {
-                    if !sleeper_ok(*sleeper) {
-                        return Err(invalid(
-                            &key("sleeper"),
-                            sleeper,
-                            &format!("a sleeper of the track, 1 to {}", t.bays - 1),
-                        ));
-                    }
+                    on_track(*sleeper)?;
                     positive(&key("factor"), *factor)?;
                 }
                 Effect::RailDip {
