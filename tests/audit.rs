@@ -2,11 +2,13 @@
 //! when nothing changed, drift reported when the calibration changed), and the explanation of
 //! why an instance is kept or falsified by a measurement.
 
+mod common;
+
 use assert_cmd::Command;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use wheelflat::audit::{self, Resimulator};
-use wheelflat::bank::{self, Bank, GenerateOptions, Quiet, StorageFormat};
+use wheelflat::bank::Bank;
 use wheelflat::identify::{synth, Extras, Identifier, Measurement};
 use wheelflat::model::{Calibration, CheckedCalibration, Flat};
 
@@ -29,16 +31,7 @@ fn small_bank() -> &'static (PathBuf, CheckedCalibration) {
     static BANK: OnceLock<(PathBuf, CheckedCalibration)> = OnceLock::new();
     BANK.get_or_init(|| {
         let cal = small_calibration().check().unwrap();
-        let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("audit-bank");
-        let opts = GenerateOptions {
-            instances: 400,
-            seed: 0,
-            shard_size: 150,
-            machine_shard: None,
-            format: StorageFormat::default(),
-            simulate_missing: true,
-        };
-        bank::generate(&cal, &dir, &opts, &Quiet).unwrap();
+        let dir = common::build_bank(&cal, "audit-bank", 400, 150);
         (dir, cal)
     })
 }

@@ -1,35 +1,22 @@
 //! Diagnosis (issue #5), the *locate* step: on a CI-sized bank, a measurement with a hidden
 //! effect shows its disagreement where the effect acts; clean data stays near the chance level.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
-use wheelflat::bank::{self, Bank, GenerateOptions, Quiet, StorageFormat};
+use wheelflat::bank::Bank;
 use wheelflat::diagnose;
 use wheelflat::identify::{synth, Extras, Identifier, Measurement};
-use wheelflat::model::{Calibration, CheckedCalibration, Effect, Flat};
+use wheelflat::model::{CheckedCalibration, Effect, Flat};
 
 /// A CI-sized bank (the identification tests' calibration), built once per test binary:
 /// the tests run in parallel and must not generate it side by side.
 fn small_bank() -> (PathBuf, CheckedCalibration) {
     static BANK: OnceLock<(PathBuf, CheckedCalibration)> = OnceLock::new();
     BANK.get_or_init(|| {
-        let mut c = Calibration::default();
-        c.output.window_samples = 600;
-        c.population.length_mm = [40.0, 80.0];
-        c.population.depth_mm = [0.3, 0.6];
-        c.population.curvature_mm = [0.0, 0.1];
-        c.population.impact_position_m = [12.3, 12.5];
-        let cal = c.check().unwrap();
-        let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("diagnose-bank");
-        let opts = GenerateOptions {
-            instances: 2000,
-            seed: 0,
-            shard_size: 1000,
-            machine_shard: None,
-            format: StorageFormat::default(),
-            simulate_missing: true,
-        };
-        bank::generate(&cal, &dir, &opts, &Quiet).unwrap();
+        let cal = common::narrow_calibration();
+        let dir = common::build_bank(&cal, "diagnose-bank", 2000, 1000);
         (dir, cal)
     })
     .clone()

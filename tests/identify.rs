@@ -1,38 +1,19 @@
 //! Identification on a small bank: measurement checks, alignment, the EDMF promise on seeded
 //! synthetic cases (coverage), EIP against random subsets.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
-use wheelflat::bank::{self, Bank, GenerateOptions, Quiet, StorageFormat};
+use wheelflat::bank::Bank;
 use wheelflat::identify::{coverage, synth, Extras, Identifier, IdentifyError, Measurement};
-use wheelflat::model::{Calibration, CheckedCalibration, Flat};
-
-/// A CI-sized bank: narrower ranges so that 2,000 instances cover them about as densely as
-/// 50,000 cover the paper's ranges, and 600-sample windows around RPS1 and RPS2's strikes.
-fn small_calibration() -> CheckedCalibration {
-    let mut c = Calibration::default();
-    c.output.window_samples = 600;
-    c.population.length_mm = [40.0, 80.0];
-    c.population.depth_mm = [0.3, 0.6];
-    c.population.curvature_mm = [0.0, 0.1];
-    c.population.impact_position_m = [12.3, 12.5];
-    c.check().unwrap()
-}
+use wheelflat::model::{CheckedCalibration, Flat};
 
 fn small_bank() -> &'static (PathBuf, CheckedCalibration) {
     static BANK: OnceLock<(PathBuf, CheckedCalibration)> = OnceLock::new();
     BANK.get_or_init(|| {
-        let cal = small_calibration();
-        let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("identify-bank");
-        let opts = GenerateOptions {
-            instances: 2000,
-            seed: 0,
-            shard_size: 1000,
-            machine_shard: None,
-            format: StorageFormat::default(),
-            simulate_missing: true,
-        };
-        bank::generate(&cal, &dir, &opts, &Quiet).unwrap();
+        let cal = common::narrow_calibration();
+        let dir = common::build_bank(&cal, "identify-bank", 2000, 1000);
         (dir, cal)
     })
 }

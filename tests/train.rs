@@ -2,6 +2,8 @@
 //! sizes (both wheels, X_p over a whole revolution), a synthetic 12-bogie train with flats on
 //! three wheels, leading and trailing.
 
+mod common;
+
 use assert_cmd::Command;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -24,16 +26,7 @@ fn small_train_bank() -> &'static (PathBuf, CheckedCalibration) {
         c.population.depth_mm = [0.25, 0.85];
         c.population.curvature_mm = [0.0, 0.25];
         let cal = c.check().unwrap();
-        let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("train-bank");
-        let opts = GenerateOptions {
-            instances: 4000,
-            seed: 0,
-            shard_size: 1000,
-            machine_shard: None,
-            format: StorageFormat::default(),
-            simulate_missing: true,
-        };
-        bank::generate(&cal, &dir, &opts, &Quiet).unwrap();
+        let dir = common::build_bank(&cal, "train-bank", 4000, 1000);
         (dir, cal)
     })
 }
