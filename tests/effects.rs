@@ -54,11 +54,13 @@ fn neutral_effects_change_nothing_bit_for_bit() {
         Effect::RailIrregularity {
             wavelength_m: 0.5,
             amplitude_mm: 0.0,
+            phase_deg: 30.0,
         },
         Effect::WheelOutOfRound {
             wheel: WheelPosition::Leading,
             order: 8,
             amplitude_mm: 0.0,
+            phase_deg: 30.0,
         },
     ] {
         let r = run(vec![e.clone()], None);
@@ -162,6 +164,7 @@ fn a_periodic_irregularity_shakes_the_contact_force_at_v_over_lambda() {
         vec![Effect::RailIrregularity {
             wavelength_m: lambda,
             amplitude_mm: 0.05,
+            phase_deg: 0.0,
         }],
         None,
     );
@@ -227,6 +230,7 @@ fn an_out_of_round_wheel_shakes_its_own_wheel_most() {
             wheel: WheelPosition::Trailing,
             order: 10,
             amplitude_mm: 0.05,
+            phase_deg: 0.0,
         }],
         None,
     );
@@ -241,6 +245,7 @@ fn an_out_of_round_wheel_shakes_its_own_wheel_most() {
             wheel: WheelPosition::Trailing,
             order: 10,
             amplitude_mm: 0.05,
+            phase_deg: 0.0,
         }],
         Some(&flat),
     );

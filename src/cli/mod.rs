@@ -57,6 +57,10 @@ enum Command {
     /// Audit one model instance: re-simulate it and compare with the bank; with a measurement,
     /// show why it is kept or falsified.
     Audit(AuditArgs),
+    /// Diagnose a model gap: locate where the best instances leave the thresholds, fit every
+    /// effect of the library with the flat and rank them (BIC), name one only when the evidence
+    /// is clear, add it, regenerate a local bank and identify again; report before and after.
+    Diagnose(DiagnoseArgs),
     /// Run the main job on built-in defaults: simulate, build the bank on first use (with
     /// progress), make a synthetic field measurement, identify the flat, write the report.
     Demo {
@@ -79,6 +83,9 @@ enum Profile {
     Paper,
     /// Whole-train monitoring: both wheels, X_p over one revolution.
     Train,
+    /// CI-sized: narrower flat ranges and 600-sample windows, for small banks (tests, the
+    /// diagnosis suite, trying things out).
+    Narrow,
 }
 
 #[derive(Debug, Subcommand)]
@@ -270,6 +277,22 @@ struct AuditArgs {
 }
 
 #[derive(Debug, Args)]
+struct DiagnoseArgs {
+    #[command(flatten)]
+    input: MeasuredArgs,
+    /// Report folder: `diagnosis.json`, `diagnosis.html`, `diagnosis-gap.png`, and with an
+    /// effect named `calibration-with-effect.toml` and the local bank in `local-bank/`.
+    #[arg(long)]
+    out: PathBuf,
+    /// Instances of the local bank regenerated with the named effect.
+    #[arg(long, default_value_t = 1000)]
+    local_instances: usize,
+    /// Name the effect but do not regenerate a bank (no "after").
+    #[arg(long)]
+    no_local_bank: bool,
+}
+
+#[derive(Debug, Args)]
 struct CompareArgs {
     #[command(flatten)]
     input: MeasuredArgs,
@@ -344,6 +367,7 @@ pub fn main() -> ExitCode {
         Command::Identify(a) => cmd_identify(&a),
         Command::Compare(a) => cmd_compare(&a),
         Command::Audit(a) => cmd_audit(&a),
+        Command::Diagnose(a) => cmd_diagnose(&a),
         Command::Train(a) => cmd_train(&a),
         Command::Demo {
             out,
@@ -384,6 +408,7 @@ fn cmd_calibration(out: Option<&Path>, profile: Profile) -> Result<()> {
     let text = match profile {
         Profile::Paper => Calibration::default(),
         Profile::Train => Calibration::train_profile(),
+        Profile::Narrow => Calibration::narrow_profile(),
     }
     .to_toml_string();
     match out {
@@ -1396,6 +1421,74 @@ fn report_identification(
         files.json.display(),
         files.html.display(),
         files.figures.len()
+    );
+    Ok(())
+}
+
+fn cmd_diagnose(a: &DiagnoseArgs) -> Result<()> {
+    let (identifier, m) = open_identifier(&a.input)?;
+    let sensors = a.input.sensors.as_deref();
+    let extras = Extras {
+        baselines: false,
+        curves: false,
+    };
+    let id = identifier.identify(&m, sensors, extras)?;
+    eprintln!(
+        "identified: {} of {} instances kept; diagnosing (fits by re-simulation, a minute at most)",
+        id.cms.len(),
+        id.bank_instances
+    );
+    let opts = crate::diagnose::Options {
+        local_instances: a.local_instances,
+        local_bank_dir: (!a.no_local_bank).then(|| a.out.join("local-bank")),
+        ..Default::default()
+    };
+    let progress = Progress::new().with_terminal();
+    let d = crate::diagnose::diagnose(&identifier, &m, sensors, &id, &opts, &progress)?;
+    let times: Vec<(String, f64, f64)> = id
+        .series
+        .iter()
+        .map(|s| (s.sensor.clone(), s.t0_s, s.sample_rate_hz))
+        .collect();
+    let files = crate::report::diagnose::write_diagnosis_report(&d, &times, &a.out)?;
+    println!("{}", d.verdict);
+    let stage = |name: &str, s: &crate::diagnose::Stage| {
+        println!(
+            "{name:<7} {:>5} of {} samples outside, gap RMS {:.3} kN, residual RMS {:.2} kN, CMS {}, L0 {}",
+            s.samples_outside,
+            s.samples,
+            s.gap_rms_kn,
+            s.rms_residual_kn,
+            s.cms,
+            s.l0_mm
+                .map_or("— (empty)".into(), |[a, b]| format!("[{a:.1}, {b:.1}] mm"))
+        );
+    };
+    stage("before", &d.before_stage);
+    if let Some(added) = &d.added {
+        stage("after", &added.after_stage);
+    }
+    if let Some(n) = &d.naming {
+        println!("ranking ({}):", n.criterion);
+        let best = n.ranking.first().map_or(n.no_effect.bic, |c| c.bic);
+        for c in n.ranking.iter().chain(std::iter::once(&n.no_effect)).take(8) {
+            println!(
+                "  {:<20} {:<34} ΔBIC {:>10.1}  z {:>7.1}",
+                c.kind,
+                c.location,
+                c.bic - best,
+                c.chi2_z
+            );
+        }
+    }
+    println!(
+        "wrote {}, {} and {}{}",
+        files.json.display(),
+        files.html.display(),
+        files.figure.display(),
+        files
+            .calibration
+            .map_or(String::new(), |p| format!(", {}", p.display()))
     );
     Ok(())
 }

@@ -252,15 +252,18 @@ pub enum Effect {
         /// Depth a (mm).
         depth_mm: f64,
     },
-    /// A periodic rail-head irregularity under both wheels: `z(x) = A·sin(2πx/λ)`.
+    /// A periodic rail-head irregularity under both wheels: `z(x) = A·sin(2πx/λ + φ)`.
     RailIrregularity {
         /// Wavelength λ (m).
         wavelength_m: f64,
         /// Amplitude A (mm).
         amplitude_mm: f64,
+        /// Phase φ at x = 0 (degrees; 0 when left out).
+        #[serde(default)]
+        phase_deg: f64,
     },
-    /// An out-of-round wheel (polygonal wear): its radius is `R_w + A·cos(n·θ)`, θ = x/R_w the
-    /// rolling angle, so its centre drops by `z = −A·cos(n·x/R_w)`.
+    /// An out-of-round wheel (polygonal wear): its radius is `R_w + A·cos(n·θ + φ)`, θ = x/R_w
+    /// the rolling angle, so its centre drops by `z = −A·cos(n·x/R_w + φ)`.
     WheelOutOfRound {
         /// The wheel.
         wheel: WheelPosition,
@@ -268,6 +271,9 @@ pub enum Effect {
         order: u32,
         /// Radius amplitude A (mm).
         amplitude_mm: f64,
+        /// Phase φ at x = 0 (degrees; 0 when left out).
+        #[serde(default)]
+        phase_deg: f64,
     },
     /// A sensor reads `factor` times the pad force (a calibration error of one sensor).
     SensorGain {
@@ -599,6 +605,19 @@ impl CheckedCalibration {
 }
 
 impl Calibration {
+    /// The CI-sized profile of the tests and the diagnosis suite: narrower flat ranges, so
+    /// that 2,000 instances cover them about as densely as 50,000 cover the paper's, and
+    /// 600-sample windows.
+    pub fn narrow_profile() -> Calibration {
+        let mut c = Calibration::default();
+        c.output.window_samples = 600;
+        c.population.length_mm = [40.0, 80.0];
+        c.population.depth_mm = [0.3, 0.6];
+        c.population.curvature_mm = [0.0, 0.1];
+        c.population.impact_position_m = [12.3, 12.5];
+        c
+    }
+
     /// The train profile: the defaults with a population for whole-train monitoring, where a
     /// flat may be on either wheel of a bogie and strike anywhere along a revolution: both
     /// wheels, X_p over one circumference `2πR_w` from 12 m.
@@ -824,17 +843,21 @@ impl Calibration {
                 Effect::RailIrregularity {
                     wavelength_m,
                     amplitude_mm,
+                    phase_deg,
                 } => {
                     positive(&key("wavelength_m"), *wavelength_m)?;
                     finite(&key("amplitude_mm"), *amplitude_mm)?;
+                    finite(&key("phase_deg"), *phase_deg)?;
                 }
                 Effect::WheelOutOfRound {
                     order,
                     amplitude_mm,
+                    phase_deg,
                     ..
                 } => {
                     positive(&key("order"), *order as f64)?;
                     finite(&key("amplitude_mm"), *amplitude_mm)?;
+                    finite(&key("phase_deg"), *phase_deg)?;
                 }
                 Effect::TimeOffset { offset_ms } => finite(&key("offset_ms"), *offset_ms)?,
                 Effect::CarBodyBounce {

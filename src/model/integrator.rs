@@ -131,13 +131,15 @@ fn irregularity(e: &Effect, w: usize, x: f64, wheel_radius: f64) -> f64 {
         Effect::RailIrregularity {
             wavelength_m,
             amplitude_mm,
-        } => amplitude_mm * 1e-3 * (TAU * x / wavelength_m).sin(),
+            phase_deg,
+        } => amplitude_mm * 1e-3 * (TAU * x / wavelength_m + phase_deg.to_radians()).sin(),
         Effect::WheelOutOfRound {
             wheel,
             order,
             amplitude_mm,
+            phase_deg,
         } if wheel.index() == w => {
-            -amplitude_mm * 1e-3 * (f64::from(*order) * x / wheel_radius).cos()
+            -amplitude_mm * 1e-3 * (f64::from(*order) * x / wheel_radius + phase_deg.to_radians()).cos()
         }
         _ => 0.0,
     }

@@ -1,7 +1,7 @@
 //! The audit figure: per sensor, an instance's stored series, its re-simulation and the
 //! measurement, with the comparison points and the admissible band of predictions at each.
 
-use super::plot::{ensure_font, PlotError, FONT};
+use super::plot::{render_png, PlotError, FONT};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -51,40 +51,13 @@ pub fn draw_audit(title: &str, panels: &[AuditPanel], path: &Path) -> Result<(),
             message: "no sensor to draw".into(),
         });
     }
-    if !ensure_font() {
-        return Err(PlotError::Font {
-            path: path.to_path_buf(),
-        });
-    }
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.tmp-{}.png", std::process::id()));
-    let draw_err = |message: String| PlotError::Draw {
-        path: path.to_path_buf(),
-        message,
-    };
-    let result = (|| -> Result<(), String> {
-        let height = 120 + 380 * panels.len() as u32;
-        let root = BitMapBackend::new(&tmp, (1400, height)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let height = 120 + 380 * panels.len() as u32;
+    render_png(path, (1400, height), |root| {
         let root = root.titled(title, (FONT, 28)).map_err(|e| e.to_string())?;
         for (panel, area) in panels.iter().zip(root.split_evenly((panels.len(), 1))) {
             draw_panel(&area, panel)?;
         }
-        root.present().map_err(|e| e.to_string())
-    })();
-    if let Err(m) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(draw_err(m));
-    }
-    std::fs::rename(&tmp, path).map_err(|source| {
-        let _ = std::fs::remove_file(&tmp);
-        PlotError::Io {
-            path: path.to_path_buf(),
-            source,
-        }
+        Ok(())
     })
 }
 

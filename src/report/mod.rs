@@ -1,6 +1,7 @@
 //! Plots and tables for people.
 
 pub mod audit;
+pub mod diagnose;
 pub mod identify;
 pub mod plot;
 

@@ -606,6 +606,45 @@ fn msg(e: impl std::fmt::Display) -> String {
     e.to_string()
 }
 
+/// Draws a PNG of `size` at `path` with `draw`: to a hidden temporary file beside it, renamed
+/// into place (nothing half-written is left on error). Checks the font first.
+pub(crate) fn render_png(
+    path: &Path,
+    size: (u32, u32),
+    draw: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> Result<(), String>,
+) -> Result<(), PlotError> {
+    if !ensure_font() {
+        return Err(PlotError::Font {
+            path: path.to_path_buf(),
+        });
+    }
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.tmp-{}.png", std::process::id()));
+    let result = (|| -> Result<(), String> {
+        let root = BitMapBackend::new(&tmp, size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        draw(&root)?;
+        root.present().map_err(|e| e.to_string())
+    })();
+    if let Err(message) = result {
+        let _ = fs::remove_file(&tmp);
+        return Err(PlotError::Draw {
+            path: path.to_path_buf(),
+            message,
+        });
+    }
+    fs::rename(&tmp, path).map_err(|source| {
+        let _ = fs::remove_file(&tmp);
+        PlotError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -26,15 +26,8 @@ pub fn build_bank(
     dir
 }
 
-/// The CI-sized identification calibration: narrower ranges so that 2,000 instances cover
-/// them about as densely as 50,000 cover the paper's ranges, and 600-sample windows.
+/// The CI-sized identification calibration ([`Calibration::narrow_profile`]).
 #[allow(dead_code)] // not every test binary uses it
 pub fn narrow_calibration() -> CheckedCalibration {
-    let mut c = Calibration::default();
-    c.output.window_samples = 600;
-    c.population.length_mm = [40.0, 80.0];
-    c.population.depth_mm = [0.3, 0.6];
-    c.population.curvature_mm = [0.0, 0.1];
-    c.population.impact_position_m = [12.3, 12.5];
-    c.check().unwrap()
+    Calibration::narrow_profile().check().unwrap()
 }
