@@ -76,11 +76,17 @@ fn main() -> anyhow::Result<()> {
         }
         outcomes.push(o);
     }
-    std::fs::write(out.join("suite.json"), serde_json::to_string_pretty(&outcomes)?)?;
+    std::fs::write(
+        out.join("suite.json"),
+        serde_json::to_string_pretty(&outcomes)?,
+    )?;
     println!("\n| case | hidden | named | pass | gap before (kN) | gap after (kN) | ratio | outside before → after |");
     println!("|---|---|---|---|---|---|---|---|");
     for o in &outcomes {
-        let named = o.named.as_ref().map_or("—".to_string(), |e| format!("{e:?}"));
+        let named = o
+            .named
+            .as_ref()
+            .map_or("—".to_string(), |e| format!("{e:?}"));
         let ratio = match o.gap_after_kn {
             Some(a) if a > 0.0 => format!("{:.1}×", o.gap_before_kn / a),
             Some(_) => "∞".into(),
@@ -111,7 +117,10 @@ fn main() -> anyhow::Result<()> {
     println!(
         "\nnamed right: {right} of {}; clean/out-of-library passed: {} of {}",
         hidden.len(),
-        outcomes.iter().filter(|o| !matches!(o.hidden, suite::Hidden::Effect(_)) && o.pass).count(),
+        outcomes
+            .iter()
+            .filter(|o| !matches!(o.hidden, suite::Hidden::Effect(_)) && o.pass)
+            .count(),
         outcomes.len() - hidden.len()
     );
     Ok(())

@@ -138,3 +138,213 @@ fn a_hidden_voided_sleeper_is_located_at_its_sleeper() {
         w.bogie_centre_m
     );
 }
+
+/// The CI-sized subset of the acceptance suite: the first case of every effect kind, the first
+/// clean case and the effect outside the library, on the 2,000-instance bank, with local banks
+/// of 400 instances. The full suite is `examples/diagnose_suite.rs`.
+#[test]
+fn the_suite_subset_names_hidden_effects_and_stays_quiet_otherwise() {
+    use wheelflat::diagnose::suite::{self, Hidden};
+    let (dir, cal) = small_bank();
+    let id = Identifier::new(Bank::open(&dir).unwrap(), cal.identification.clone()).unwrap();
+    let mut seen_kinds: Vec<std::mem::Discriminant<Effect>> = Vec::new();
+    let mut clean_done = false;
+    let cases: Vec<suite::Case> = suite::cases()
+        .into_iter()
+        .filter(|c| match &c.hidden {
+            Hidden::Effect(e) => {
+                let k = std::mem::discriminant(e);
+                let first = !seen_kinds.contains(&k);
+                seen_kinds.push(k);
+                first
+            }
+            Hidden::Clean => !std::mem::replace(&mut clean_done, true),
+            Hidden::NotInLibrary(_) => true,
+        })
+        .collect();
+    assert_eq!(
+        cases.len(),
+        12,
+        "ten kinds, one clean, one outside the library"
+    );
+    let tmp = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("diagnose-suite-local");
+    let mut outcomes = Vec::new();
+    for (i, case) in cases.iter().enumerate() {
+        let (o, _) = suite::run_case(&id, &cal, case, &tmp.join(i.to_string()), 400).unwrap();
+        println!(
+            "{:<40} {} gap {:.3} → {:?} kN, outside {} → {:?}: {}",
+            o.case,
+            if o.pass { "PASS" } else { "FAIL" },
+            o.gap_before_kn,
+            o.gap_after_kn,
+            o.outside_before,
+            o.outside_after,
+            o.verdict
+        );
+        outcomes.push(o);
+    }
+    let hidden: Vec<_> = outcomes
+        .iter()
+        .filter(|o| matches!(o.hidden, Hidden::Effect(_)))
+        .collect();
+    let right = hidden.iter().filter(|o| o.pass).count();
+    // Acceptance: ≥ 90 % named right (9 of 10 here).
+    assert!(
+        right * 10 >= 9 * hidden.len(),
+        "named right {right} of {}",
+        hidden.len()
+    );
+    // No false alarm on clean data; the effect outside the library is not named.
+    for o in outcomes
+        .iter()
+        .filter(|o| !matches!(o.hidden, Hidden::Effect(_)))
+    {
+        assert!(o.named.is_none(), "{}: named {:?}", o.case, o.named);
+    }
+    // Every effect named and added shrinks the gap at least 3×.
+    for o in hidden.iter().filter(|o| o.pass) {
+        let after = o.gap_after_kn.expect("a named effect is added");
+        assert!(
+            after * 3.0 <= o.gap_before_kn,
+            "{}: gap {} → {after}",
+            o.case,
+            o.gap_before_kn
+        );
+    }
+}
+
+#[test]
+fn the_goodness_of_fit_z_is_standard_normal_for_chi2_at_its_quantiles() {
+    use wheelflat::diagnose::name::chi2_z;
+    // Quantiles computed with mpmath (regularised incomplete gamma, bisection to 1e-20):
+    // χ² with 3000 dof has median 2999.333 (z = 0) and 0.999 quantile 3245.079 (z = 3.090).
+    assert!(
+        chi2_z(2999.333, 3000.0).abs() < 0.005,
+        "{}",
+        chi2_z(2999.333, 3000.0)
+    );
+    assert!(
+        (chi2_z(3245.079, 3000.0) - 3.090).abs() < 0.01,
+        "{}",
+        chi2_z(3245.079, 3000.0)
+    );
+    // Small dof, where the approximation is worst: the 0.999 quantile at 10 dof is 29.588.
+    assert!((chi2_z(29.588, 10.0) - 3.09).abs() < 0.05);
+}
+
+#[test]
+fn the_noise_model_follows_the_uncertainty_table() {
+    use wheelflat::diagnose::fit::NoiseModel;
+    let cal = common::narrow_calibration();
+    let n = NoiseModel::from_settings(&cal.identification);
+    // Absolute sources: ±1 kN noise and ±50 N resolution: σ² = 2²/12 + 0.1²/12.
+    let sigma = ((4.0 + 0.01) / 12.0f64).sqrt();
+    assert!((n.sigma_kn - sigma).abs() < 1e-12, "{}", n.sigma_kn);
+    // Sensor factor: (1 − mean model error)(1 + mean measurement error); model means −5 %,
+    // −1.5 %, 0, 0, 0 → 1.065; measurement means 0.
+    assert!((n.gain_mean - 1.065).abs() < 1e-12, "{}", n.gain_mean);
+    // Variance: Σ w²/12 over the relative sources.
+    let widths: [f64; 7] = [0.20, 0.13, 0.06, 0.02, 0.10, 0.10, 0.04];
+    let sd = (widths.iter().map(|w| w * w / 12.0).sum::<f64>()).sqrt();
+    assert!((n.gain_sd - sd).abs() < 1e-12, "{}", n.gain_sd);
+}
+
+#[test]
+fn the_flat_fit_by_resimulation_recovers_a_known_flat() {
+    use wheelflat::diagnose::fit::{self, levenberg_marquardt, NoiseModel, Observed, Problem};
+    let cal = common::narrow_calibration();
+    let noise = NoiseModel::from_settings(&cal.identification);
+    // The "measurement": the model's own prediction of a known flat on all sensors, times the
+    // prior sensor factor, no noise.
+    let windows: Vec<Observed> = (0..cal.sensors.pad.len())
+        .map(|i| Observed {
+            sensor: cal.sensors.pad[i].name.clone(),
+            first_sample: cal.window_start_sample(i),
+            values_kn: vec![0.0; cal.output.window_samples],
+        })
+        .collect();
+    let wheel = cal.vehicle.flat_wheel;
+    let probe = Problem::new(cal.document().clone(), &windows, noise, wheel);
+    let truth = fit::flat_vector(58.0, 0.47, 0.04, 12.41);
+    let g = probe.simulate(&truth, &[]).unwrap();
+    let observed: Vec<Observed> = windows
+        .iter()
+        .zip(&g)
+        .map(|(w, g)| Observed {
+            values_kn: g.iter().map(|v| v * noise.gain_mean).collect(),
+            ..w.clone()
+        })
+        .collect();
+    let problem = Problem::new(cal.document().clone(), &observed, noise, wheel);
+    let params = fit::flat_params(&cal.population);
+    let eval = |x: &[f64]| problem.evaluate(&[x[0], x[1], x[2], x[3]], &[]);
+    // Start 3 mm longer, 0.02 mm deeper and 2 mm later than the truth.
+    let start = fit::flat_vector(61.0, 0.49, 0.04, 12.412);
+    let r = levenberg_marquardt(&params, &start, &eval, 40).unwrap();
+    println!(
+        "fit {:?} (truth {truth:?}), χ² {:.3} after {} Jacobians, {} simulations",
+        r.x,
+        r.eval.chi2,
+        r.iterations,
+        problem.simulations()
+    );
+    // Tolerances: a hundredth of the bank's resolution or less along each parameter (the
+    // 2,000-instance bank's cells are ~6 mm in L, ~0.05 mm in d, ~30 mm in X_p); noise-free
+    // data, so the fit must land on the truth.
+    assert!((r.x[0] - truth[0]).abs() < 0.05, "L {}", r.x[0]);
+    assert!((r.x[1] - truth[1]).abs() < 0.0005, "d {}", r.x[1]);
+    assert!((r.x[3] - truth[3]).abs() < 0.00005, "X_p {}", r.x[3]);
+    // Left: a χ² far below one sample's worth of noise per sensor.
+    assert!(r.eval.chi2 < 1.0, "χ² {}", r.eval.chi2);
+}
+
+#[test]
+fn the_diagnose_command_reports_clean_data_and_names_a_missing_file() {
+    let (dir, cal) = small_bank();
+    let tmp = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("diagnose-cli");
+    std::fs::create_dir_all(&tmp).unwrap();
+    let flat = Flat::from_mm(58.0, 0.47, 0.04, 12.41).unwrap();
+    let syn = synth::synthesize(&cal, &flat, 25, true).unwrap();
+    let csv = tmp.join("clean.csv");
+    std::fs::write(&csv, &syn.csv).unwrap();
+    let out = tmp.join("report");
+    let _ = std::fs::remove_dir_all(&out);
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_wheelflat"))
+        .args(["diagnose", "--bank"])
+        .arg(&dir)
+        .arg("--measured")
+        .arg(&csv)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    println!("{stdout}{}", String::from_utf8_lossy(&run.stderr));
+    assert!(run.status.success());
+    assert!(stdout.contains("no missing effect found"), "{stdout}");
+    for f in ["diagnosis.json", "diagnosis.html", "diagnosis-gap.png"] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    assert!(!out.join("calibration-with-effect.toml").exists());
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("diagnosis.json")).unwrap())
+            .unwrap();
+    assert_eq!(json["before_stage"]["samples_outside"], 0);
+    // A measurement that is not there: the error names it, nothing is written.
+    let missing = tmp.join("no-such.csv");
+    let out2 = tmp.join("report-2");
+    let _ = std::fs::remove_dir_all(&out2);
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_wheelflat"))
+        .args(["diagnose", "--bank"])
+        .arg(&dir)
+        .arg("--measured")
+        .arg(&missing)
+        .arg("--out")
+        .arg(&out2)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success());
+    assert!(stderr.contains("no-such.csv"), "{stderr}");
+    assert!(!out2.exists());
+}

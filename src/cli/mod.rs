@@ -1471,7 +1471,12 @@ fn cmd_diagnose(a: &DiagnoseArgs) -> Result<()> {
     if let Some(n) = &d.naming {
         println!("ranking ({}):", n.criterion);
         let best = n.ranking.first().map_or(n.no_effect.bic, |c| c.bic);
-        for c in n.ranking.iter().chain(std::iter::once(&n.no_effect)).take(8) {
+        for c in n
+            .ranking
+            .iter()
+            .chain(std::iter::once(&n.no_effect))
+            .take(8)
+        {
             println!(
                 "  {:<20} {:<34} ΔBIC {:>10.1}  z {:>7.1}",
                 c.kind,

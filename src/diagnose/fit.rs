@@ -183,7 +183,11 @@ impl<'a> Problem<'a> {
                 gg += gk * gk;
             }
             let a = (gy / (s * s) + m / (sa * sa)) / (gg / (s * s) + 1.0 / (sa * sa));
-            weighted.extend(gs.iter().zip(&o.values_kn).map(|(gk, yk)| (a * gk - yk) / s));
+            weighted.extend(
+                gs.iter()
+                    .zip(&o.values_kn)
+                    .map(|(gk, yk)| (a * gk - yk) / s),
+            );
             gains.push(a);
         }
         weighted.extend(gains.iter().map(|a| (a - m) / sa));
@@ -391,4 +395,46 @@ pub fn flat_params(pop: &crate::model::calibration::PopulationParams) -> Vec<Par
 /// The flat vector of stored parameters `[L, d, c, X_p]`.
 pub fn flat_vector(l: f64, d: f64, c: f64, xp: f64) -> FlatVector {
     [l, d, if d > 0.0 { 2.0 * c / d } else { 0.0 }, xp]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn eval_of(r: Vec<f64>) -> Evaluation {
+        Evaluation {
+            chi2: r.iter().map(|x| x * x).sum(),
+            weighted: r,
+            gains: Vec::new(),
+            predicted_kn: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn levenberg_marquardt_recovers_an_exponential_and_stops_at_a_bound() {
+        let t: Vec<f64> = (0..40).map(|k| k as f64 * 0.1).collect();
+        let y: Vec<f64> = t.iter().map(|t| 3.0 * (-0.7 * t).exp()).collect();
+        let f = |x: &[f64]| {
+            Some(eval_of(
+                t.iter()
+                    .zip(&y)
+                    .map(|(t, y)| x[0] * (-x[1] * t).exp() - y)
+                    .collect(),
+            ))
+        };
+        let params = [
+            Param::new("a", 0.0, 10.0, 1e-6),
+            Param::new("b", 0.0, 5.0, 1e-6),
+        ];
+        let r = levenberg_marquardt(&params, &[1.0, 2.0], &f, 100).unwrap();
+        assert!((r.x[0] - 3.0).abs() < 1e-4, "{:?}", r.x);
+        assert!((r.x[1] - 0.7).abs() < 1e-4, "{:?}", r.x);
+        // The optimum a = 3 lies above an upper bound of 2: the fit ends on the bound.
+        let bounded = [
+            Param::new("a", 0.0, 2.0, 1e-6),
+            Param::new("b", 0.0, 5.0, 1e-6),
+        ];
+        let r = levenberg_marquardt(&bounded, &[1.0, 2.0], &f, 100).unwrap();
+        assert!((r.x[0] - 2.0).abs() < 1e-9, "{:?}", r.x);
+    }
 }

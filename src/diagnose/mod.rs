@@ -242,7 +242,11 @@ impl Stage {
             bank_id: id.bank_id.clone(),
             bank_instances: id.bank_instances,
             cms: id.cms.len(),
-            l0_mm: id.falsifications.first().and_then(|f| f.ranges.as_ref()).map(|r| r.l0_mm),
+            l0_mm: id
+                .falsifications
+                .first()
+                .and_then(|f| f.ranges.as_ref())
+                .map(|r| r.l0_mm),
             best_instance: id.residual_minimisation.instance,
             best_l0_mm: id.residual_minimisation.l0_mm,
             rms_residual_kn: l.rms_residual_kn,
@@ -382,7 +386,9 @@ pub fn best_bank_instances(
     let mut order: Vec<usize> = (0..n_inst).filter(|&i| chi2[i].is_finite()).collect();
     order.sort_by(|&a, &b| chi2[a].total_cmp(&chi2[b]));
     let Some(&first) = order.first() else {
-        return Err(DiagnoseError::Other("no bank instance could be compared".into()));
+        return Err(DiagnoseError::Other(
+            "no bank instance could be compared".into(),
+        ));
     };
     let wheel = crate::model::WheelPosition::from_code(params.flat_wheel[first]);
     Ok(order
@@ -494,7 +500,11 @@ pub fn diagnose(
         identifier,
         per_point_probability: out.before.per_point_probability,
     };
-    let (outside0, _) = problem.outside(identifier, &best.eval.predicted_kn, judge.per_point_probability);
+    let (outside0, _) = problem.outside(
+        identifier,
+        &best.eval.predicted_kn,
+        judge.per_point_probability,
+    );
     if outside0 == 0 {
         out.verdict = format!(
             "no missing effect found: the flat alone, fitted between the bank's instances (L {:.1} mm, d {:.3} mm, X_p {:.4} m), agrees within the thresholds at every sample; the {} samples outside were the bank's resolution",

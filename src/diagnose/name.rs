@@ -331,9 +331,10 @@ fn same_place(a: &Candidate, b: &Candidate) -> bool {
             Some(Effect::RailDip { position_m: x, .. }),
             Some(Effect::RailDip { position_m: y, .. }),
         ) => (x - y).abs() < 0.35,
-        (Some(Effect::WheelOutOfRound { wheel: w1, .. }), Some(Effect::WheelOutOfRound { wheel: w2, .. })) => {
-            w1 == w2 && a.location == b.location
-        }
+        (
+            Some(Effect::WheelOutOfRound { wheel: w1, .. }),
+            Some(Effect::WheelOutOfRound { wheel: w2, .. }),
+        ) => w1 == w2 && a.location == b.location,
         (Some(Effect::RailIrregularity { .. }), Some(Effect::RailIrregularity { .. }))
         | (Some(Effect::CarBodyBounce { .. }), Some(Effect::CarBodyBounce { .. }))
         | (Some(Effect::TimeOffset { .. }), Some(Effect::TimeOffset { .. }))

@@ -3,7 +3,7 @@
 //! not hold; each is identified on a bank built without effects and diagnosed. Shared by the
 //! tests (a CI-sized subset) and `examples/diagnose_suite.rs` (all of it).
 
-use super::{diagnose, Diagnosis, DiagnoseError, Options};
+use super::{diagnose, DiagnoseError, Diagnosis, Options};
 use crate::bank::Quiet;
 use crate::identify::{synth, Extras, Identifier, Measurement};
 use crate::model::{Calibration, CheckedCalibration, Effect, Flat, WheelPosition};
@@ -47,33 +47,97 @@ pub fn cases() -> Vec<Case> {
     let f2 = [66.0, 0.52, 0.06, 12.37];
     let f3 = [50.0, 0.40, 0.02, 12.45];
     vec![
-        hide("voided sleeper 17, 0.3 mm", VoidedSleeper { sleeper: 17, gap_mm: 0.3 }, f1, 5),
-        hide("voided sleeper 18, 1.0 mm", VoidedSleeper { sleeper: 18, gap_mm: 1.0 }, f2, 6),
-        hide("pad 17 ×0.3", PadStiffness { sleeper: 17, factor: 0.3 }, f3, 7),
-        hide("pad 16 ×0.15", PadStiffness { sleeper: 16, factor: 0.15 }, f1, 8),
-        hide("ballast 18 ×0.2", BallastStiffness { sleeper: 18, factor: 0.2 }, f2, 9),
-        hide("ballast 16 ×0.3", BallastStiffness { sleeper: 16, factor: 0.3 }, f3, 10),
+        hide(
+            "voided sleeper 17, 0.3 mm",
+            VoidedSleeper {
+                sleeper: 17,
+                gap_mm: 0.3,
+            },
+            f1,
+            5,
+        ),
+        hide(
+            "voided sleeper 18, 1.0 mm",
+            VoidedSleeper {
+                sleeper: 18,
+                gap_mm: 1.0,
+            },
+            f2,
+            6,
+        ),
+        hide(
+            "pad 17 ×0.3",
+            PadStiffness {
+                sleeper: 17,
+                factor: 0.3,
+            },
+            f3,
+            7,
+        ),
+        hide(
+            "pad 16 ×0.15",
+            PadStiffness {
+                sleeper: 16,
+                factor: 0.15,
+            },
+            f1,
+            8,
+        ),
+        hide(
+            "ballast 18 ×0.2",
+            BallastStiffness {
+                sleeper: 18,
+                factor: 0.2,
+            },
+            f2,
+            9,
+        ),
+        hide(
+            "ballast 16 ×0.3",
+            BallastStiffness {
+                sleeper: 16,
+                factor: 0.3,
+            },
+            f3,
+            10,
+        ),
         hide(
             "dip at 11.9 m, 0.5 m, 1.5 mm",
-            RailDip { position_m: 11.9, length_m: 0.5, depth_mm: 1.5 },
+            RailDip {
+                position_m: 11.9,
+                length_m: 0.5,
+                depth_mm: 1.5,
+            },
             f1,
             11,
         ),
         hide(
             "dip at 12.95 m, 0.4 m, 1 mm",
-            RailDip { position_m: 12.95, length_m: 0.4, depth_mm: 1.0 },
+            RailDip {
+                position_m: 12.95,
+                length_m: 0.4,
+                depth_mm: 1.0,
+            },
             f2,
             12,
         ),
         hide(
-            "irregularity 0.5 m, 0.3 mm",
-            RailIrregularity { wavelength_m: 0.5, amplitude_mm: 0.3, phase_deg: 30.0 },
+            "irregularity 0.5 m, 0.5 mm",
+            RailIrregularity {
+                wavelength_m: 0.5,
+                amplitude_mm: 0.5,
+                phase_deg: 30.0,
+            },
             f3,
             13,
         ),
         hide(
             "irregularity 0.8 m, 0.6 mm",
-            RailIrregularity { wavelength_m: 0.8, amplitude_mm: 0.6, phase_deg: 120.0 },
+            RailIrregularity {
+                wavelength_m: 0.8,
+                amplitude_mm: 0.6,
+                phase_deg: 120.0,
+            },
             f1,
             14,
         ),
@@ -99,27 +163,66 @@ pub fn cases() -> Vec<Case> {
             f3,
             16,
         ),
-        hide("rps2 gain ×1.6", SensorGain { sensor: "rps2".into(), factor: 1.6 }, f1, 17),
-        hide("rps4 gain ×0.55", SensorGain { sensor: "rps4".into(), factor: 0.55 }, f2, 18),
+        hide(
+            "rps2 gain ×1.6",
+            SensorGain {
+                sensor: "rps2".into(),
+                factor: 1.6,
+            },
+            f1,
+            17,
+        ),
+        hide(
+            "rps4 gain ×0.55",
+            SensorGain {
+                sensor: "rps4".into(),
+                factor: 0.55,
+            },
+            f2,
+            18,
+        ),
         hide("clock +10 ms", TimeOffset { offset_ms: 10.0 }, f3, 19),
         hide("clock −15 ms", TimeOffset { offset_ms: -15.0 }, f1, 20),
         hide("speed +5 %", SpeedDeviation { fraction: 0.05 }, f2, 21),
         hide("speed −7 %", SpeedDeviation { fraction: -0.07 }, f3, 22),
         hide(
             "bounce 30 % at 1.2 Hz",
-            CarBodyBounce { amplitude: 0.3, frequency_hz: 1.2, phase_deg: 40.0 },
+            CarBodyBounce {
+                amplitude: 0.3,
+                frequency_hz: 1.2,
+                phase_deg: 40.0,
+            },
             f1,
             23,
         ),
         hide(
             "bounce 25 % at 3 Hz",
-            CarBodyBounce { amplitude: 0.25, frequency_hz: 3.0, phase_deg: 200.0 },
+            CarBodyBounce {
+                amplitude: 0.25,
+                frequency_hz: 3.0,
+                phase_deg: 200.0,
+            },
             f2,
             24,
         ),
-        Case { name: "clean A".into(), hidden: Hidden::Clean, flat: f1, seed: 25 },
-        Case { name: "clean B".into(), hidden: Hidden::Clean, flat: f2, seed: 26 },
-        Case { name: "clean C".into(), hidden: Hidden::Clean, flat: f3, seed: 27 },
+        Case {
+            name: "clean A".into(),
+            hidden: Hidden::Clean,
+            flat: f1,
+            seed: 25,
+        },
+        Case {
+            name: "clean B".into(),
+            hidden: Hidden::Clean,
+            flat: f2,
+            seed: 26,
+        },
+        Case {
+            name: "clean C".into(),
+            hidden: Hidden::Clean,
+            flat: f3,
+            seed: 27,
+        },
         Case {
             name: "unsprung mass +40 % (not in the library)".into(),
             hidden: Hidden::NotInLibrary("wheel_mass_kg × 1.4".into()),

@@ -139,7 +139,9 @@ fn irregularity(e: &Effect, w: usize, x: f64, wheel_radius: f64) -> f64 {
             amplitude_mm,
             phase_deg,
         } if wheel.index() == w => {
-            -amplitude_mm * 1e-3 * (f64::from(*order) * x / wheel_radius + phase_deg.to_radians()).cos()
+            -amplitude_mm
+                * 1e-3
+                * (f64::from(*order) * x / wheel_radius + phase_deg.to_radians()).cos()
         }
         _ => 0.0,
     }
