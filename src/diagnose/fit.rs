@@ -366,7 +366,7 @@ fn finish(
     }
 }
 
-/// The flat's parameters for fitting, bounded by the population ranges.
+/// The flat's parameters for fitting, bounded by the population ranges (X_p with a margin).
 pub fn flat_params(pop: &crate::model::calibration::PopulationParams) -> Vec<Param> {
     let span = |r: [f64; 2]| r[1] - r[0];
     vec![
@@ -383,14 +383,19 @@ pub fn flat_params(pop: &crate::model::calibration::PopulationParams) -> Vec<Par
             2e-3 * span(pop.depth_mm),
         ),
         Param::new("c/(d/2)", 0.0, 0.98, 2e-3),
+        // The apparent impact position of a series shifted in time (a clock offset, a speed
+        // deviation) may lie beyond the population: a margin of 0.25 m (18 ms at 50 km/h).
         Param::new(
             "X_p (m)",
-            pop.impact_position_m[0],
-            pop.impact_position_m[1],
+            pop.impact_position_m[0] - XP_MARGIN_M,
+            pop.impact_position_m[1] + XP_MARGIN_M,
             2e-4,
         ),
     ]
 }
+
+/// How far beyond the population's X_p range a fit may go (m).
+pub const XP_MARGIN_M: f64 = 0.25;
 
 /// The flat vector of stored parameters `[L, d, c, X_p]`.
 pub fn flat_vector(l: f64, d: f64, c: f64, xp: f64) -> FlatVector {

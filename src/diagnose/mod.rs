@@ -483,9 +483,29 @@ pub fn diagnose(
     let problem = fit::Problem::new(cal.document().clone(), &obs, noise, wheel);
     let flat_params = fit::flat_params(&cal.population);
     use rayon::prelude::*;
-    let fits: Vec<fit::Fitted> = starts
+    // Starts: the best bank instances, and the best one with X_p on a 20 mm grid over the
+    // fit's X_p bounds (a series shifted in time puts the apparent impact outside the bank).
+    let xp = &flat_params[3];
+    let mut grid: Vec<(f64, fit::FlatVector)> = Vec::new();
+    let mut x = xp.lo;
+    while x <= xp.hi + 1e-9 {
+        grid.push((0.0, [starts[0].1[0], starts[0].1[1], starts[0].1[2], x]));
+        x += 0.02;
+    }
+    let scored: Vec<(f64, fit::FlatVector)> = grid
         .par_iter()
-        .filter_map(|(_, v, _)| {
+        .map(|(_, v)| {
+            let chi2 = problem.evaluate(v, &[]).map_or(f64::INFINITY, |e| e.chi2);
+            (chi2, *v)
+        })
+        .collect();
+    let mut scored = scored;
+    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut all_starts: Vec<fit::FlatVector> = starts.iter().map(|s| s.1).collect();
+    all_starts.extend(scored.iter().take(2).map(|s| s.1));
+    let fits: Vec<fit::Fitted> = all_starts
+        .par_iter()
+        .filter_map(|v| {
             let eval = |x: &[f64]| problem.evaluate(&[x[0], x[1], x[2], x[3]], &[]);
             fit::levenberg_marquardt(&flat_params, v, &eval, 12)
         })
@@ -496,7 +516,14 @@ pub fn diagnose(
         .ok_or_else(|| DiagnoseError::Other("the flat-only fit failed at every start".into()))?;
     let flat0 = [best.x[0], best.x[1], best.x[2], best.x[3]];
     lap("flat-only fit", &mut timings);
+    let lead = cal.run.leading_wheel_start_m;
     let judge = name::Judge {
+        timing: name::Timing {
+            speed_m_per_s: cal.speed_m_per_s(),
+            wheel_start_m: lead - 2.0 * cal.vehicle.half_wheelbase_m * wheel.index() as f64,
+            lead_start_m: lead,
+            laser_m: cal.sensors.laser_trigger_m,
+        },
         identifier,
         per_point_probability: out.before.per_point_probability,
     };

@@ -139,6 +139,41 @@ pub struct Context {
     pub max_order: u32,
 }
 
+/// What moves the flat's strikes in time: the effects that shift the series in time are fitted
+/// with the *apparent* impact position (where the strike would be without them) held, so
+/// that the flat-only fit's X_p stays right while the effect changes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Timing {
+    /// Nominal speed (m/s).
+    pub speed_m_per_s: f64,
+    /// Start position of the wheel carrying the flat (m).
+    pub wheel_start_m: f64,
+    /// Start position of the leading wheel (m).
+    pub lead_start_m: f64,
+    /// The laser trigger (m).
+    pub laser_m: f64,
+}
+
+impl Timing {
+    /// The flat whose strikes, with effect `e`, come when those of `apparent` would without.
+    /// Time offset τ: `X_p = X_app − v·τ`. Speed `v' = (1 + f)·v` with the trigger delay
+    /// `δ = (x_laser − x_0)(1/v − 1/v')`: `X_p = x_w0 + v'·((X_app − x_w0)/v − δ)`.
+    pub fn actual(&self, apparent: FlatVector, e: &Effect) -> FlatVector {
+        let v = self.speed_m_per_s;
+        let mut f = apparent;
+        match e {
+            Effect::TimeOffset { offset_ms } => f[3] -= v * offset_ms * 1e-3,
+            Effect::SpeedDeviation { fraction } => {
+                let v2 = v * (1.0 + fraction);
+                let delay = (self.laser_m - self.lead_start_m) * (1.0 / v - 1.0 / v2);
+                f[3] = self.wheel_start_m + v2 * ((apparent[3] - self.wheel_start_m) / v - delay);
+            }
+            _ => {}
+        }
+        f
+    }
+}
+
 /// The library's effects as families to fit.
 pub fn families(ctx: &Context) -> Vec<Family> {
     let mut out = Vec::new();
@@ -345,6 +380,8 @@ fn same_place(a: &Candidate, b: &Candidate) -> bool {
 
 /// What the naming needs of the identification besides the fitting problem.
 pub struct Judge<'a> {
+    /// Strike timing (see [`Timing`]).
+    pub timing: Timing,
     /// Thresholds of the identification.
     pub identifier: &'a crate::identify::Identifier,
     /// Šídák per-sample probability over all samples.
@@ -355,7 +392,10 @@ struct Fit {
     family: usize,
     x: Vec<f64>,
     sd: Vec<f64>,
+    /// The flat as simulated.
     flat: FlatVector,
+    /// The flat as fitted (apparent impact position).
+    apparent: FlatVector,
     eval: Evaluation,
     joint: bool,
 }
@@ -392,7 +432,7 @@ pub fn name(
         .map(|&(f, s)| {
             let e = (families[f].build)(&families[f].seeds[s]);
             problem
-                .evaluate(&flat0, &[e])
+                .evaluate(&judge.timing.actual(flat0, &e), &[e])
                 .map_or(f64::INFINITY, |e| e.chi2)
         })
         .collect();
@@ -427,15 +467,20 @@ pub fn name(
             let mut x0 = vec![flat0[3]];
             x0.extend_from_slice(&fam.seeds[s]);
             let eval = |x: &[f64]| {
-                let flat = [flat0[0], flat0[1], flat0[2], x[0]];
-                problem.evaluate(&flat, &[(fam.build)(&x[1..])])
+                let e = (fam.build)(&x[1..]);
+                let flat = judge
+                    .timing
+                    .actual([flat0[0], flat0[1], flat0[2], x[0]], &e);
+                problem.evaluate(&flat, &[e])
             };
             let r = levenberg_marquardt(&params, &x0, &eval, MAX_ITER)?;
+            let apparent = [flat0[0], flat0[1], flat0[2], r.x[0]];
             Some(Fit {
                 family: f,
+                flat: judge.timing.actual(apparent, &(fam.build)(&r.x[1..])),
+                apparent,
                 x: r.x[1..].to_vec(),
                 sd: r.sd[1..].to_vec(),
-                flat: [flat0[0], flat0[1], flat0[2], r.x[0]],
                 eval: r.eval,
                 joint: false,
             })
@@ -476,17 +521,21 @@ pub fn name(
             let fam = &families[h.family];
             let mut params = flat_params.to_vec();
             params.extend(fam.params.iter().cloned());
-            let mut x0 = h.flat.to_vec();
+            let mut x0 = h.apparent.to_vec();
             x0.extend_from_slice(&h.x);
             let eval = |x: &[f64]| {
-                let flat = [x[0], x[1], x[2], x[3]];
-                problem.evaluate(&flat, &[(fam.build)(&x[4..])])
+                let e = (fam.build)(&x[4..]);
+                let flat = judge.timing.actual([x[0], x[1], x[2], x[3]], &e);
+                problem.evaluate(&flat, &[e])
             };
             let fit = levenberg_marquardt(&params, &x0, &eval, MAX_ITER_JOINT)
                 .filter(|r| r.eval.chi2 <= h.eval.chi2)
                 .map(|r| Fit {
                     family: h.family,
-                    flat: [r.x[0], r.x[1], r.x[2], r.x[3]],
+                    flat: judge
+                        .timing
+                        .actual([r.x[0], r.x[1], r.x[2], r.x[3]], &(fam.build)(&r.x[4..])),
+                    apparent: [r.x[0], r.x[1], r.x[2], r.x[3]],
                     x: r.x[4..].to_vec(),
                     sd: r.sd[4..].to_vec(),
                     eval: r.eval,
@@ -504,6 +553,7 @@ pub fn name(
                 x: held[i].x.clone(),
                 sd: held[i].sd.clone(),
                 flat: held[i].flat,
+                apparent: held[i].apparent,
                 eval: held[i].eval.clone(),
                 joint: false,
             }),
