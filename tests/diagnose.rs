@@ -307,17 +307,20 @@ fn the_diagnose_command_reports_clean_data_and_names_a_missing_file() {
     let syn = synth::synthesize(&cal, &flat, 25, true).unwrap();
     let csv = tmp.join("clean.csv");
     std::fs::write(&csv, &syn.csv).unwrap();
+    let diagnose = |measured: &Path, out: &Path| {
+        let _ = std::fs::remove_dir_all(out);
+        std::process::Command::new(env!("CARGO_BIN_EXE_wheelflat"))
+            .args(["diagnose", "--bank"])
+            .arg(&dir)
+            .arg("--measured")
+            .arg(measured)
+            .arg("--out")
+            .arg(out)
+            .output()
+            .unwrap()
+    };
     let out = tmp.join("report");
-    let _ = std::fs::remove_dir_all(&out);
-    let run = std::process::Command::new(env!("CARGO_BIN_EXE_wheelflat"))
-        .args(["diagnose", "--bank"])
-        .arg(&dir)
-        .arg("--measured")
-        .arg(&csv)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let run = diagnose(&csv, &out);
     let stdout = String::from_utf8_lossy(&run.stdout);
     println!("{stdout}{}", String::from_utf8_lossy(&run.stderr));
     assert!(run.status.success());
@@ -333,16 +336,7 @@ fn the_diagnose_command_reports_clean_data_and_names_a_missing_file() {
     // A measurement that is not there: the error names it, nothing is written.
     let missing = tmp.join("no-such.csv");
     let out2 = tmp.join("report-2");
-    let _ = std::fs::remove_dir_all(&out2);
-    let run = std::process::Command::new(env!("CARGO_BIN_EXE_wheelflat"))
-        .args(["diagnose", "--bank"])
-        .arg(&dir)
-        .arg("--measured")
-        .arg(&missing)
-        .arg("--out")
-        .arg(&out2)
-        .output()
-        .unwrap();
+    let run = diagnose(&missing, &out2);
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(!run.status.success());
     assert!(stderr.contains("no-such.csv"), "{stderr}");
