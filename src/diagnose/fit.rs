@@ -29,6 +29,13 @@ pub struct NoiseModel {
 }
 
 impl NoiseModel {
+    /// The sensor factor `a` minimising `Σ(a·g − y)²/σ² + (a − ā)²/σ_a²` over one sensor's
+    /// samples, from `Σ g·y` and `Σ g²`.
+    pub fn profiled_gain(&self, gy: f64, gg: f64) -> f64 {
+        let (s2, sa2) = (self.sigma_kn.powi(2), self.gain_sd.powi(2));
+        (gy / s2 + self.gain_mean / sa2) / (gg / s2 + 1.0 / sa2)
+    }
+
     /// Moments of the uniform sources of the table.
     pub fn from_settings(id: &IdentificationParams) -> NoiseModel {
         let var = |u: &crate::model::calibration::UncertaintySource| (u.max - u.min).powi(2) / 12.0;
@@ -182,7 +189,7 @@ impl<'a> Problem<'a> {
                 gy += gk * yk;
                 gg += gk * gk;
             }
-            let a = (gy / (s * s) + m / (sa * sa)) / (gg / (s * s) + 1.0 / (sa * sa));
+            let a = self.noise.profiled_gain(gy, gg);
             weighted.extend(
                 gs.iter()
                     .zip(&o.values_kn)

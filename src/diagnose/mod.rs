@@ -333,52 +333,46 @@ pub fn observed(identifier: &Identifier, id: &Identification) -> Vec<fit::Observ
 /// vector, wheel)`.
 pub fn best_bank_instances(
     identifier: &Identifier,
-    problem_noise: fit::NoiseModel,
+    noise: fit::NoiseModel,
     observed: &[fit::Observed],
     k: usize,
 ) -> Result<Vec<(u32, fit::FlatVector, crate::model::WheelPosition)>, DiagnoseError> {
     let bank = identifier.bank();
     let meta = bank.metadata();
     let mut cols = Vec::new();
-    let mut picks: Vec<(usize, usize)> = Vec::new(); // (observed series, sample)
-    for (oi, o) in observed.iter().enumerate() {
+    // Per observed series: (index into `cols`, sample).
+    let mut picks: Vec<Vec<(usize, usize)>> = vec![Vec::new(); observed.len()];
+    for (o, series_picks) in observed.iter().zip(&mut picks) {
         let Some(s) = meta.sensors.iter().position(|a| a.name == o.sensor) else {
             continue;
         };
         let n = o.values_kn.len();
         let stride = (n / 256).max(4).min(n.max(1));
         for kk in (0..n).step_by(stride) {
+            series_picks.push((cols.len(), kk));
             cols.push(bank.sample_index(s, kk));
-            picks.push((oi, kk));
         }
     }
     let data = bank.read_columns(&cols)?;
     let params = bank.read_parameters()?;
     let n_inst = bank.instances();
-    let fit::NoiseModel {
-        sigma_kn: s,
-        gain_mean: m,
-        gain_sd: sa,
-    } = problem_noise;
     use rayon::prelude::*;
     let chi2: Vec<f64> = (0..n_inst)
         .into_par_iter()
         .map(|i| {
             let mut total = 0.0;
-            for (oi, ob) in observed.iter().enumerate() {
+            for (ob, series_picks) in observed.iter().zip(&picks) {
                 let (mut gy, mut gg, mut yy) = (0.0, 0.0, 0.0);
-                for (c, &(o, kk)) in picks.iter().enumerate() {
-                    if o != oi {
-                        continue;
-                    }
+                for &(c, kk) in series_picks {
                     let g = f64::from(data[c][i]);
                     let y = ob.values_kn[kk];
                     gy += g * y;
                     gg += g * g;
                     yy += y * y;
                 }
-                let a = (gy / (s * s) + m / (sa * sa)) / (gg / (s * s) + 1.0 / (sa * sa));
-                total += (a * a * gg - 2.0 * a * gy + yy) / (s * s) + ((a - m) / sa).powi(2);
+                let a = noise.profiled_gain(gy, gg);
+                total += (a * a * gg - 2.0 * a * gy + yy) / noise.sigma_kn.powi(2)
+                    + ((a - noise.gain_mean) / noise.gain_sd).powi(2);
             }
             total
         })
@@ -486,20 +480,19 @@ pub fn diagnose(
     // Starts: the best bank instances, and the best one with X_p on a 20 mm grid over the
     // fit's X_p bounds (a series shifted in time puts the apparent impact outside the bank).
     let xp = &flat_params[3];
-    let mut grid: Vec<(f64, fit::FlatVector)> = Vec::new();
+    let mut grid: Vec<fit::FlatVector> = Vec::new();
     let mut x = xp.lo;
     while x <= xp.hi + 1e-9 {
-        grid.push((0.0, [starts[0].1[0], starts[0].1[1], starts[0].1[2], x]));
+        grid.push([starts[0].1[0], starts[0].1[1], starts[0].1[2], x]);
         x += 0.02;
     }
-    let scored: Vec<(f64, fit::FlatVector)> = grid
+    let mut scored: Vec<(f64, fit::FlatVector)> = grid
         .par_iter()
-        .map(|(_, v)| {
+        .map(|v| {
             let chi2 = problem.evaluate(v, &[]).map_or(f64::INFINITY, |e| e.chi2);
             (chi2, *v)
         })
         .collect();
-    let mut scored = scored;
     scored.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut all_starts: Vec<fit::FlatVector> = starts.iter().map(|s| s.1).collect();
     all_starts.extend(scored.iter().take(2).map(|s| s.1));

@@ -388,13 +388,12 @@ pub struct Judge<'a> {
     pub per_point_probability: f64,
 }
 
+#[derive(Clone)]
 struct Fit {
     family: usize,
     x: Vec<f64>,
     sd: Vec<f64>,
-    /// The flat as simulated.
-    flat: FlatVector,
-    /// The flat as fitted (apparent impact position).
+    /// The flat as fitted (apparent impact position; [`Timing::actual`] gives the simulated).
     apparent: FlatVector,
     eval: Evaluation,
     joint: bool,
@@ -477,7 +476,6 @@ pub fn name(
             let apparent = [flat0[0], flat0[1], flat0[2], r.x[0]];
             Some(Fit {
                 family: f,
-                flat: judge.timing.actual(apparent, &(fam.build)(&r.x[1..])),
                 apparent,
                 x: r.x[1..].to_vec(),
                 sd: r.sd[1..].to_vec(),
@@ -532,9 +530,6 @@ pub fn name(
                 .filter(|r| r.eval.chi2 <= h.eval.chi2)
                 .map(|r| Fit {
                     family: h.family,
-                    flat: judge
-                        .timing
-                        .actual([r.x[0], r.x[1], r.x[2], r.x[3]], &(fam.build)(&r.x[4..])),
                     apparent: [r.x[0], r.x[1], r.x[2], r.x[3]],
                     x: r.x[4..].to_vec(),
                     sd: r.sd[4..].to_vec(),
@@ -548,15 +543,7 @@ pub fn name(
     for &i in &order {
         match joint.iter().find(|(j, _)| *j == i) {
             Some((_, Some(_))) => {}
-            _ => fits.push(Fit {
-                family: held[i].family,
-                x: held[i].x.clone(),
-                sd: held[i].sd.clone(),
-                flat: held[i].flat,
-                apparent: held[i].apparent,
-                eval: held[i].eval.clone(),
-                joint: false,
-            }),
+            _ => fits.push(held[i].clone()),
         }
     }
     fits.extend(joint.into_iter().filter_map(|(_, f)| f));
@@ -566,6 +553,8 @@ pub fn name(
         let effect = (fam.build)(&fit.x);
         let (outside, gap) = problem.outside(judge.identifier, &fit.eval.predicted_kn, p);
         let k = fam.params.len() + 4;
+        let z = chi2_z(fit.eval.chi2, (n - k) as f64);
+        let flat = flat_mm(&judge.timing.actual(fit.apparent, &effect));
         Candidate {
             kind: fam.kind.to_string(),
             location: location_of(fam, &effect),
@@ -580,13 +569,13 @@ pub fn name(
                     sd,
                 })
                 .collect(),
-            flat: flat_mm(&fit.flat),
+            flat,
             chi2: fit.eval.chi2,
             k,
             families: per_kind(fam.kind),
             bic: bic(fit.eval.chi2, k, fam.kind),
-            chi2_z: chi2_z(fit.eval.chi2, (n - k) as f64),
-            adequate: chi2_z(fit.eval.chi2, (n - k) as f64) <= ADEQUATE_Z,
+            chi2_z: z,
+            adequate: z <= ADEQUATE_Z,
             joint: fit.joint,
             samples_outside: outside,
             gap_rms_kn: gap,
@@ -604,6 +593,7 @@ pub fn name(
         }
     }
     let (outside0, gap0) = problem.outside(judge.identifier, &none.predicted_kn, p);
+    let z0 = chi2_z(none.chi2, (n - 4) as f64);
     let no_effect = Candidate {
         kind: "none".into(),
         location: "—".into(),
@@ -614,8 +604,8 @@ pub fn name(
         k: 4,
         families: 1,
         bic: none.chi2 + 4.0 * ln_n,
-        chi2_z: chi2_z(none.chi2, (n - 4) as f64),
-        adequate: chi2_z(none.chi2, (n - 4) as f64) <= ADEQUATE_Z,
+        chi2_z: z0,
+        adequate: z0 <= ADEQUATE_Z,
         joint: true,
         samples_outside: outside0,
         gap_rms_kn: gap0,
