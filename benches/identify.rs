@@ -38,10 +38,7 @@ fn bench_identify(c: &mut Criterion) {
     let m =
         Measurement::from_csv(Path::new("bench.csv"), &syn.csv, cal.output.sample_rate_hz).unwrap();
     let sensors = vec!["rps1".to_string(), "rps2".to_string()];
-    let quick = Extras {
-        baselines: false,
-        curves: false,
-    };
+    let quick = Extras::NONE;
     c.bench_function(&format!("identify_one_measurement_{n}_instances"), |b| {
         b.iter(|| id.identify(black_box(&m), Some(&sensors), quick).unwrap())
     });

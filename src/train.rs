@@ -456,14 +456,7 @@ pub fn identify_train(
         let identification = if check.passes {
             None
         } else {
-            Some(identifier.identify(
-                &m,
-                None,
-                Extras {
-                    baselines: false,
-                    curves: false,
-                },
-            )?)
+            Some(identifier.identify(&m, None, Extras::NONE)?)
         };
         for wheel in [WheelPosition::Leading, WheelPosition::Trailing] {
             let (flat, l0, count) = match &identification {

@@ -126,16 +126,7 @@ fn the_verdict_of_every_instance_matches_the_candidate_model_set_and_names_its_p
     let flat = Flat::from_mm(58.0, 0.47, 0.04, 12.41).unwrap();
     let syn = synth::synthesize(cal, &flat, 5, true).unwrap();
     let m = Measurement::from_csv(Path::new("m.csv"), &syn.csv, 2500.0).unwrap();
-    let id = identifier
-        .identify(
-            &m,
-            None,
-            Extras {
-                baselines: false,
-                curves: false,
-            },
-        )
-        .unwrap();
+    let id = identifier.identify(&m, None, Extras::NONE).unwrap();
     let b = identifier.bank();
     let (mut kept, mut falsified) = (0, 0);
     for i in 0..b.instances() {

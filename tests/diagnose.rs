@@ -29,16 +29,7 @@ fn locate(id: &Identifier, cal: &CheckedCalibration, effects: Vec<Effect>) -> di
     let flat = Flat::from_mm(58.0, 0.47, 0.04, 12.41).unwrap();
     let syn = synth::synthesize(&hidden, &flat, 5, true).unwrap();
     let m = Measurement::from_csv(Path::new("m.csv"), &syn.csv, 2500.0).unwrap();
-    let ident = id
-        .identify(
-            &m,
-            None,
-            Extras {
-                baselines: false,
-                curves: false,
-            },
-        )
-        .unwrap();
+    let ident = id.identify(&m, None, Extras::NONE).unwrap();
     diagnose::locate(id, &ident).unwrap()
 }
 

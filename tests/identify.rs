@@ -53,27 +53,13 @@ fn unknown_or_missing_sensors_and_short_records_are_errors() {
     let syn = synth::synthesize(cal, &flat, 3, true).unwrap();
     let renamed = syn.csv.replace("rps3_kn", "rps9_kn");
     let e = id
-        .identify(
-            &parse(&renamed).unwrap(),
-            None,
-            Extras {
-                baselines: false,
-                curves: false,
-            },
-        )
+        .identify(&parse(&renamed).unwrap(), None, Extras::NONE)
         .unwrap_err()
         .to_string();
     assert!(e.contains("sensor `rps9` is not in the bank"), "{e}");
     let m = parse(&syn.csv).unwrap();
     let e = id
-        .identify(
-            &m,
-            Some(&["rps7".to_string()]),
-            Extras {
-                baselines: false,
-                curves: false,
-            },
-        )
+        .identify(&m, Some(&["rps7".to_string()]), Extras::NONE)
         .unwrap_err()
         .to_string();
     assert!(e.contains("`rps7` was asked for"), "{e}");
@@ -85,14 +71,7 @@ fn unknown_or_missing_sensors_and_short_records_are_errors() {
         .map(|l| format!("{l}\n"))
         .collect();
     let e = id
-        .identify(
-            &parse(&short).unwrap(),
-            None,
-            Extras {
-                baselines: false,
-                curves: false,
-            },
-        )
+        .identify(&parse(&short).unwrap(), None, Extras::NONE)
         .unwrap_err()
         .to_string();
     assert!(e.contains("needs samples from"), "{e}");
@@ -106,24 +85,10 @@ fn cross_correlation_finds_the_same_shift_as_the_laser_trigger() {
     let with = synth::synthesize(cal, &flat, 5, true).unwrap();
     let without = synth::synthesize(cal, &flat, 5, false).unwrap();
     let a = id
-        .identify(
-            &parse(&with.csv).unwrap(),
-            None,
-            Extras {
-                baselines: false,
-                curves: false,
-            },
-        )
+        .identify(&parse(&with.csv).unwrap(), None, Extras::NONE)
         .unwrap();
     let b = id
-        .identify(
-            &parse(&without.csv).unwrap(),
-            None,
-            Extras {
-                baselines: false,
-                curves: false,
-            },
-        )
+        .identify(&parse(&without.csv).unwrap(), None, Extras::NONE)
         .unwrap();
     assert_eq!(a.alignment.method, "laser trigger");
     assert_eq!(b.alignment.method, "cross-correlation");

@@ -1017,14 +1017,7 @@ fn cmd_audit(a: &AuditArgs) -> Result<()> {
             calibration: a.calibration.clone(),
         };
         let (identifier, m) = open_identifier(&input)?;
-        let id = identifier.identify(
-            &m,
-            a.sensors.as_deref(),
-            Extras {
-                baselines: false,
-                curves: false,
-            },
-        )?;
+        let id = identifier.identify(&m, a.sensors.as_deref(), Extras::NONE)?;
         let c = audit::check_against(&identifier, &id, &stored)?;
         print!("{}", audit_table(&c));
         check = Some(c);
@@ -1428,10 +1421,7 @@ fn report_identification(
 fn cmd_diagnose(a: &DiagnoseArgs) -> Result<()> {
     let (identifier, m) = open_identifier(&a.input)?;
     let sensors = a.input.sensors.as_deref();
-    let extras = Extras {
-        baselines: false,
-        curves: false,
-    };
+    let extras = Extras::NONE;
     let id = identifier.identify(&m, sensors, extras)?;
     eprintln!(
         "identified: {} of {} instances kept; diagnosing (fits by re-simulation, a minute at most)",

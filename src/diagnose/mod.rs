@@ -594,14 +594,7 @@ pub fn diagnose(
         crate::bank::generate(&with, dir, &gen, observer)?;
         lap("local bank", &mut timings);
         let local = Identifier::new(crate::bank::Bank::open(dir)?, identifier.settings().clone())?;
-        let again = local.identify(
-            m,
-            sensors,
-            crate::identify::Extras {
-                baselines: false,
-                curves: false,
-            },
-        )?;
+        let again = local.identify(m, sensors, crate::identify::Extras::NONE)?;
         let after = locate(&local, &again)?;
         let after_stage = Stage::of(&again, &after);
         lap("identify again", &mut timings);

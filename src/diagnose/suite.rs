@@ -316,14 +316,7 @@ pub fn run_case(
 ) -> Result<(Outcome, Diagnosis), DiagnoseError> {
     let t = std::time::Instant::now();
     let (m, l0) = measurement(cal, case).map_err(DiagnoseError::Other)?;
-    let id = identifier.identify(
-        &m,
-        None,
-        Extras {
-            baselines: false,
-            curves: false,
-        },
-    )?;
+    let id = identifier.identify(&m, None, Extras::NONE)?;
     let opts = Options {
         local_instances,
         local_bank_dir: Some(local_dir.to_path_buf()),

@@ -86,6 +86,14 @@ pub struct Extras {
     pub curves: bool,
 }
 
+impl Extras {
+    /// The method alone: no baselines, no entropy curves.
+    pub const NONE: Extras = Extras {
+        baselines: false,
+        curves: false,
+    };
+}
+
 /// A measurement made ready for comparison with the bank.
 struct Prepared {
     /// (measurement sensor index, bank axis index) of the sensors used.
