@@ -5,7 +5,9 @@
 //! parameters, the Monte Carlo uncertainty samples); [`Identifier::identify`] is the per-
 //! measurement path: align, PIP, read the candidate columns, entropy selection, falsify.
 
+pub mod aligned;
 pub mod cells;
+pub mod emulator;
 pub mod coverage;
 pub mod entropy;
 pub mod falsify;
