@@ -7,7 +7,8 @@
 //! (`w = ψ = 0`) and carry no DOFs. Displacements are positive downwards.
 
 use super::banded::BandedSym;
-use super::calibration::{CheckedCalibration, Effect};
+use super::calibration::CheckedCalibration;
+use super::effect;
 
 /// 4-point Gauss–Legendre rule on [0, 1]; exact for the degree-6 products below.
 const GAUSS4: [(f64, f64); 4] = [
@@ -288,32 +289,12 @@ impl TrackModel {
             let (Some(s), Some(w)) = (*s, node_w[(idx + 1) * elements_per_bay]) else {
                 continue;
             };
-            // Effects that change one sleeper's pad or ballast stiffness.
-            let factor = |pick: fn(&Effect) -> Option<(usize, f64)>| {
-                cal.effects
-                    .iter()
-                    .filter_map(pick)
-                    .filter(|&(k, _)| k == idx + 1)
-                    .map(|(_, f)| f)
-                    .product::<f64>()
-            };
-            let kp = t.pad_stiffness_n_per_m
-                * factor(|e| match e {
-                    Effect::PadStiffness { sleeper, factor } => Some((*sleeper, *factor)),
-                    _ => None,
-                });
+            // Effects that change one sleeper's pad or ballast stiffness, or void it.
+            let kp = t.pad_stiffness_n_per_m * effect::pad_stiffness_factor(&cal.effects, idx + 1);
             let kb = t.ballast_stiffness_n_per_m
-                * factor(|e| match e {
-                    Effect::BallastStiffness { sleeper, factor } => Some((*sleeper, *factor)),
-                    _ => None,
-                });
+                * effect::ballast_stiffness_factor(&cal.effects, idx + 1);
             pad_stiffness_at[w] = kp;
-            let gap = cal.effects.iter().find_map(|e| match e {
-                Effect::VoidedSleeper { sleeper, gap_mm } if *sleeper == idx + 1 => {
-                    Some(gap_mm * 1e-3)
-                }
-                _ => None,
-            });
+            let gap = effect::void_gap_m(&cal.effects, idx + 1);
             // Pad (Kelvin) between rail and sleeper, ballast (Kelvin) between sleeper and
             // ground; a voided sleeper's ballast is unilateral and stays out of the matrices.
             let (kb_lin, cb_lin) = match gap {
