@@ -18,7 +18,7 @@
 use crate::bank::Bank;
 use crate::identify::synth::{draw_sources, resolution_step_kn};
 use crate::identify::{
-    Extras, FlatFreeCheck, Identification, Identifier, IdentifyError, Measurement,
+    Extras, FlatFreeCheck, Identification, Identifier, IdentifyError, Measurement, Severity,
 };
 use crate::model::calibration::{UncertaintyGroup, UncertaintyKind};
 use crate::model::{CheckedCalibration, Flat, Record, SimError, Simulator, WheelPosition};
@@ -360,8 +360,8 @@ pub struct WheelRow {
     pub l0_mm: Option<[f64; 2]>,
     /// Surviving instances with the flat on this wheel.
     pub cms_count: usize,
-    /// Severity class (rule in [`severity`]).
-    pub severity: String,
+    /// Severity class (rule in [`Severity::of_wheel`]).
+    pub severity: Severity,
 }
 
 /// One bogie's outcome.
@@ -396,20 +396,6 @@ pub struct TrainResult {
     pub warnings: Vec<String>,
     /// Wall time (ms).
     pub total_ms: f64,
-}
-
-/// Severity from the upper bound of L0, the conservative end (an under-estimated flat is the
-/// safety risk): `urgent` when it reaches `urgent_l0_mm` (remove within 24 h), `inspect` when
-/// it reaches `inspect_l0_mm`, else `monitor`; `none` without a flat; `inspect` when the model
-/// is refuted (something the model lacks is on the wheel or the track).
-pub fn severity(flat: &str, l0: Option<[f64; 2]>, urgent_mm: f64, inspect_mm: f64) -> String {
-    match (flat, l0) {
-        ("no", _) => "none".into(),
-        ("yes", Some([_, hi])) if hi >= urgent_mm => "urgent".into(),
-        ("yes", Some([_, hi])) if hi >= inspect_mm => "inspect".into(),
-        ("yes", Some(_)) => "monitor".into(),
-        _ => "inspect".into(),
-    }
 }
 
 /// Identifies every bogie of a train recording.
@@ -474,7 +460,7 @@ pub fn identify_train(
                 flat: flat.into(),
                 l0_mm: l0,
                 cms_count: count,
-                severity: severity(flat, l0, s.urgent_l0_mm, s.inspect_l0_mm),
+                severity: Severity::of_wheel(flat, l0, s.urgent_l0_mm, s.inspect_l0_mm),
             });
         }
         results.push(BogieResult {
@@ -490,10 +476,7 @@ pub fn identify_train(
         bank_id: identifier.bank().metadata().bank_id.clone(),
         wheels: rows,
         bogies: results,
-        severity_rule: format!(
-            "none: the good-wheel check passes at every PIP at φ^(1/bogies) = {:.4} (no flat can be told from the measurement); otherwise by the upper L0 bound of the wheel's candidate model set: urgent (remove within 24 h) from {} mm, inspect from {} mm, monitor below; inspect when every instance is falsified (the model is refuted)",
-            phi_bogie, s.urgent_l0_mm, s.inspect_l0_mm
-        ),
+        severity_rule: Severity::train_rule(phi_bogie, s),
         warnings,
         total_ms: clock.elapsed().as_secs_f64() * 1e3,
     })
@@ -566,13 +549,13 @@ pub fn table_html(r: &TrainResult) -> String {
             .map_or("—".to_string(), |[a, b]| format!("[{a:.0}, {b:.0}]"));
         h += &format!(
             "<tr class=\"{}\"><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td><td>{}</td><td>{l0}</td><td class=\"num\">{}</td><td>{}</td></tr>\n",
-            esc(&w.severity),
+            esc(w.severity.as_str()),
             w.car,
             w.bogie,
             w.wheel.name(),
             esc(&w.flat),
             w.cms_count,
-            esc(&w.severity)
+            esc(w.severity.as_str())
         );
     }
     h += &format!(
@@ -636,14 +619,5 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("count must be even"), "{e}");
-    }
-
-    #[test]
-    fn severity_follows_the_stated_rule() {
-        assert_eq!(severity("no", None, 40.0, 25.0), "none");
-        assert_eq!(severity("yes", Some([30.0, 41.0]), 40.0, 25.0), "urgent");
-        assert_eq!(severity("yes", Some([20.0, 30.0]), 40.0, 25.0), "inspect");
-        assert_eq!(severity("yes", Some([18.0, 24.0]), 40.0, 25.0), "monitor");
-        assert_eq!(severity("unknown", None, 40.0, 25.0), "inspect");
     }
 }
