@@ -1,5 +1,6 @@
 //! The parameter ranges an identification reports: of a set of surviving instances (the
-//! union of their cells, or their hull), per wheel, and of the whole population.
+//! union of their cells, or their hull) and of the whole population, with L0 from the depth
+//! bounds through [`Flat::fresh_length_mm`].
 
 use super::cells::Cells;
 use super::result::{InstanceParams, ParamRanges};
