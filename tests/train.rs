@@ -44,7 +44,7 @@ fn flats_are_found_on_the_right_wheels_and_good_wheels_stay_good() {
     assert_eq!(times.len(), 24);
     let bogies = train::bogies_from_triggers(cal, Path::new("t.csv"), &times).unwrap();
     let r = train::identify_train(&id, &m, &bogies).unwrap();
-    print!("{}", train::table_text(&r));
+    print!("{}", wheelflat::report::train::table_text(&r));
     assert_eq!(r.wheels.len(), 24);
     for w in &r.wheels {
         let t = truth
@@ -71,7 +71,7 @@ fn flats_are_found_on_the_right_wheels_and_good_wheels_stay_good() {
         }
     }
     // The table's CSV has a header and one line per wheel.
-    let csv = train::table_csv(&r);
+    let csv = wheelflat::report::train::table_csv(&r);
     assert_eq!(csv.lines().count(), 25);
     assert!(csv.starts_with("car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity\n"));
 }

@@ -153,7 +153,7 @@ pub fn generate(
     for entry in std::fs::read_dir(&version).map_err(io_err(&version))? {
         let entry = entry.map_err(io_err(&version))?;
         let name = entry.file_name().to_string_lossy().to_string();
-        if name.starts_with('.') && name.ends_with(".tmp") {
+        if crate::atomic::is_temporary(&name) {
             std::fs::remove_file(entry.path()).map_err(io_err(&entry.path()))?;
         }
     }

@@ -956,15 +956,15 @@ fn cmd_train(a: &TrainArgs) -> Result<()> {
     let csv = a.out.join("train.csv");
     let json = a.out.join("train.json");
     let html = a.out.join("train.html");
-    write_atomically(&csv, crate::train::table_csv(&result).as_bytes())?;
+    write_atomically(&csv, crate::report::train::table_csv(&result).as_bytes())?;
     write_atomically(
         &json,
         serde_json::to_string_pretty(&result)
             .expect("train result serialises")
             .as_bytes(),
     )?;
-    write_atomically(&html, crate::train::table_html(&result).as_bytes())?;
-    print!("{}", crate::train::table_text(&result));
+    write_atomically(&html, crate::report::train::table_html(&result).as_bytes())?;
+    print!("{}", crate::report::train::table_text(&result));
     let flats = result.wheels.iter().filter(|w| w.flat == "yes").count();
     println!(
         "{} bogies, {} wheels: {flats} with a flat; identified in {:.0} ms ({:.0} ms per bogie)",
