@@ -4,5 +4,7 @@ pub mod audit;
 pub mod diagnose;
 pub mod identify;
 pub mod plot;
+pub mod response;
+pub mod tables;
 
 pub use plot::{draw_pad_forces, PadForcePlot, PlotError, Series};
