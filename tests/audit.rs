@@ -215,3 +215,35 @@ fn audit_command_writes_its_report_and_names_bad_instances() {
         "{stderr}"
     );
 }
+
+/// `bank audit`'s library side ([`audit::BankAudit`]): its instances are the spread sample,
+/// and one thread and many give the same report, equal to re-simulating one by one.
+#[test]
+fn a_bank_audit_is_the_same_on_one_thread_and_many() {
+    let (dir, _) = small_bank();
+    let b = Bank::open(dir).unwrap();
+    let plan = audit::BankAudit::new(&b, None, 7).unwrap();
+    assert_eq!(plan.instances(), audit::sample_instances(400, 7).as_slice());
+    let on = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| plan.run().unwrap())
+    };
+    let one = on(1);
+    assert_eq!(one, on(4));
+    let resim = Resimulator::new(&b, None).unwrap();
+    let mut ws = resim.workspace();
+    let by_hand: Vec<audit::Resimulation> = plan
+        .instances()
+        .iter()
+        .map(|&i| {
+            let stored = b.read_instance(i).unwrap();
+            audit::compare(&stored, &resim.run(&stored, &mut ws).unwrap(), &b)
+        })
+        .collect();
+    assert_eq!(one.results, by_hand);
+    assert!(one.drifted().is_empty());
+    assert_eq!(one.worst_kn().to_bits(), 0.0f64.to_bits());
+}

@@ -7,8 +7,10 @@
 //! - [`writer`]: one shard file.
 //! - [`generate`]: parallel generation, resume, versions and the `CURRENT` pointer.
 //! - [`reader`]: memory-mapped reading of projected columns; verification.
+//! - [`info`]: a bank's size and parameter ranges.
 
 pub mod generate;
+pub mod info;
 pub mod population;
 pub mod reader;
 pub mod schema;
