@@ -4,22 +4,16 @@
 
 mod common;
 
-use assert_cmd::Command;
-use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use common::{cached_bank, small_calibration, wheelflat, CachedBank};
+use std::path::Path;
 use wheelflat::audit::{self, Resimulator};
 use wheelflat::bank::Bank;
 use wheelflat::identify::{synth, Extras, Identifier, Measurement};
-use wheelflat::model::{Calibration, CheckedCalibration, Flat};
+use wheelflat::model::{Calibration, Flat};
 
-fn wheelflat() -> Command {
-    Command::new(assert_cmd::cargo::cargo_bin("wheelflat"))
-}
-
-/// 400 instances over narrow ranges around the synthetic flat, 400-sample windows.
-fn small_calibration() -> Calibration {
-    let mut c = Calibration::default();
-    c.output.window_samples = 400;
+/// Narrow ranges around the synthetic flat, 400-sample windows.
+fn audit_calibration() -> Calibration {
+    let mut c = small_calibration(400);
     c.population.length_mm = [40.0, 80.0];
     c.population.depth_mm = [0.3, 0.6];
     c.population.curvature_mm = [0.0, 0.1];
@@ -27,13 +21,14 @@ fn small_calibration() -> Calibration {
     c
 }
 
-fn small_bank() -> &'static (PathBuf, CheckedCalibration) {
-    static BANK: OnceLock<(PathBuf, CheckedCalibration)> = OnceLock::new();
-    BANK.get_or_init(|| {
-        let cal = small_calibration().check().unwrap();
-        let dir = common::build_bank(&cal, "audit-bank", 400, 150);
-        (dir, cal)
-    })
+/// 400 instances of [`audit_calibration`], 150 per shard file.
+fn small_bank() -> &'static CachedBank {
+    cached_bank(
+        "audit-bank",
+        || audit_calibration().check().unwrap(),
+        400,
+        150,
+    )
 }
 
 #[test]
@@ -74,7 +69,7 @@ fn a_drifted_calibration_is_reported_and_fails() {
     let (dir, _) = small_bank();
     let tmp = tempfile::tempdir().unwrap();
     // The track was recalibrated: pads 10 % stiffer.
-    let mut drifted = small_calibration();
+    let mut drifted = audit_calibration();
     drifted.track.pad_stiffness_n_per_m *= 1.1;
     let path = tmp.path().join("drifted.toml");
     std::fs::write(&path, drifted.to_toml_string()).unwrap();
@@ -98,7 +93,7 @@ fn a_drifted_calibration_is_reported_and_fails() {
     );
     // The same calibration written out unchanged is no drift.
     let same = tmp.path().join("same.toml");
-    std::fs::write(&same, small_calibration().to_toml_string()).unwrap();
+    std::fs::write(&same, audit_calibration().to_toml_string()).unwrap();
     wheelflat()
         .args(["bank", "audit"])
         .arg(dir)

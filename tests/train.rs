@@ -4,31 +4,24 @@
 
 mod common;
 
-use assert_cmd::Command;
-use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
-use wheelflat::bank::{self, Bank, GenerateOptions, Quiet, StorageFormat};
+use common::{cached_bank, options, small_calibration, wheelflat, CachedBank};
+use std::path::Path;
+use wheelflat::bank::{self, Bank, Quiet};
 use wheelflat::identify::{Identifier, Measurement};
-use wheelflat::model::{Calibration, CheckedCalibration};
+use wheelflat::model::Calibration;
 use wheelflat::train::{self, TrainSpec};
 
-fn wheelflat() -> Command {
-    Command::new(assert_cmd::cargo::cargo_bin("wheelflat"))
-}
-
 /// The train profile over narrower sizes, 600-sample windows, 4,000 instances.
-fn small_train_bank() -> &'static (PathBuf, CheckedCalibration) {
-    static BANK: OnceLock<(PathBuf, CheckedCalibration)> = OnceLock::new();
-    BANK.get_or_init(|| {
+fn small_train_bank() -> &'static CachedBank {
+    let calibration = || {
         let mut c = Calibration::train_profile();
         c.output.window_samples = 600;
         c.population.length_mm = [40.0, 100.0];
         c.population.depth_mm = [0.25, 0.85];
         c.population.curvature_mm = [0.0, 0.25];
-        let cal = c.check().unwrap();
-        let dir = common::build_bank(&cal, "train-bank", 4000, 1000);
-        (dir, cal)
-    })
+        c.check().unwrap()
+    };
+    cached_bank("train-bank", calibration, 4000, 1000)
 }
 
 #[test]
@@ -133,19 +126,9 @@ fn the_commands_write_the_report_and_refuse_a_bank_that_does_not_cover_a_train()
     );
 
     // The paper's profile (trailing wheel, 1 m of X_p) does not cover a train.
-    let mut paper = Calibration::default();
-    paper.output.window_samples = 50;
-    let paper = paper.check().unwrap();
+    let paper = small_calibration(50).check().unwrap();
     let pdir = tmp.path().join("paper-bank");
-    let opts = GenerateOptions {
-        instances: 8,
-        seed: 0,
-        shard_size: 8,
-        machine_shard: None,
-        format: StorageFormat::default(),
-        simulate_missing: true,
-    };
-    bank::generate(&paper, &pdir, &opts, &Quiet).unwrap();
+    bank::generate(&paper, &pdir, &options(8, 8), &Quiet).unwrap();
     let err = wheelflat()
         .arg("train")
         .arg("--bank")
