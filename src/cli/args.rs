@@ -22,7 +22,7 @@ pub(super) struct Cli {
 // The commands.
 #[derive(Debug, Subcommand)]
 pub(super) enum Command {
-    /// Print the built-in calibration (MODEL.md defaults) as a TOML file to start from.
+    /// Print the built-in calibration (docs/model.md defaults) as a TOML file to start from.
     Calibration {
         /// Write to this file instead of standard output.
         #[arg(long)]

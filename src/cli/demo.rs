@@ -21,7 +21,7 @@ pub(super) fn run(out: &Path, bank_dir: &Path, instances: usize) -> Result<()> {
     let cal = load_calibration(None)?;
     let sim = Simulator::new(&cal)?;
     println!(
-        "wheelflat demo: built-in calibration (MODEL.md defaults), outputs in {}",
+        "wheelflat demo: built-in calibration (docs/model.md defaults), outputs in {}",
         out.display()
     );
     println!("\n1. Simulate");

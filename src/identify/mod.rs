@@ -1,4 +1,4 @@
-//! Identification from the bank (paper §2–3, MODEL.md §7–8): perceptually important points
+//! Identification from the bank (paper §2–3, docs/model.md §7–8): perceptually important points
 //! of the measured series, joint-entropy selection, error-domain model falsification.
 //!
 //! [`Identifier::new`] opens what is reused across measurements (the memory-mapped bank, its

@@ -1,4 +1,4 @@
-//! The vertical train–track model (MODEL.md §1–6, paper §4.2): calibration, rail finite
+//! The vertical train–track model (docs/model.md §1–6, paper §4.2): calibration, rail finite
 //! elements, vehicle, Hertz contact, wheel flat, the effect library and the time integrator
 //! with its step schedule.
 //!

@@ -1,5 +1,5 @@
 //! The track: a Timoshenko–Rayleigh rail on discrete Kelvin pads, sleeper masses and
-//! Kelvin ballast (MODEL.md §2, paper §4.2, Fig. 9), assembled as banded matrices.
+//! Kelvin ballast (docs/model.md §2, paper §4.2, Fig. 9), assembled as banded matrices.
 //!
 //! Degrees of freedom, in band order along the rail: for every interior rail node its
 //! deflection `w` and cross-section rotation `ψ`, followed by the sleeper's vertical
@@ -91,7 +91,7 @@ impl TimoshenkoElement {
     /// interpolation cannot represent (the element's "bubble"). Added in series with the Hertz
     /// spring it makes the rail deflection under a wheel exact for static loads anywhere in an
     /// element, which removes the spurious force ripple at the element-crossing frequency
-    /// `v / l_e` (MODEL.md §9). Computed by splitting the element at the load into two exact
+    /// `v / l_e` (docs/model.md §9). Computed by splitting the element at the load into two exact
     /// segments and condensing the free node: `G = (S⁻¹)₀₀` with
     /// `S = K_a[(w2,ψ2),(w2,ψ2)] + K_b[(w1,ψ1),(w1,ψ1)]`.
     #[inline]
@@ -418,7 +418,7 @@ impl TrackModel {
         }
     }
 
-    /// Rail-pad force at sleeper `k`, MODEL.md §6:
+    /// Rail-pad force at sleeper `k`, docs/model.md §6:
     /// `F_pad = K_p·(w_rail − z_s) + C_p·(ẇ_rail − ż_s)`, compression positive.
     #[inline]
     pub fn pad_force(&self, dofs: (usize, usize), u: &[f64], v: &[f64]) -> f64 {

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 pub enum WheelPosition {
     /// The wheel ahead in the direction of travel.
     Leading,
-    /// The wheel behind (the paper's and MODEL.md's default).
+    /// The wheel behind (the paper's and docs/model.md's default).
     Trailing,
 }
 

@@ -435,6 +435,7 @@ fn force_range<'a>(curves: impl Iterator<Item = &'a [f64]>) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::report::dir_entries;
     use std::fs;
 
     const N: usize = 200;
@@ -491,20 +492,6 @@ mod tests {
             strike_times_s: &STRIKES,
             contact_kn: contact.map(|[a, b]| [a.as_slice(), b.as_slice()]),
         }
-    }
-
-    fn dir_entries(dir: &Path) -> Vec<String> {
-        let mut names: Vec<String> = fs::read_dir(dir)
-            .expect("read tempdir")
-            .map(|e| {
-                e.expect("dir entry")
-                    .file_name()
-                    .to_string_lossy()
-                    .into_owned()
-            })
-            .collect();
-        names.sort();
-        names
     }
 
     #[test]

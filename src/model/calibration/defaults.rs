@@ -45,7 +45,7 @@ impl Default for IdentificationParams {
 }
 
 impl Default for Calibration {
-    /// The MODEL.md defaults (metro vehicle, ballasted track with timber sleepers).
+    /// The docs/model.md defaults (metro vehicle, ballasted track with timber sleepers).
     fn default() -> Self {
         let pad = [
             ("rps1", 19),

@@ -1,4 +1,4 @@
-//! The calibration file: every parameter of the train–track model (MODEL.md §1–6)
+//! The calibration file: every parameter of the train–track model (docs/model.md §1–6)
 //! plus the integration settings and the population ranges of the bank.
 //!
 //! [`Calibration`] is the editable document (what `wheelflat calibration` prints and
@@ -35,7 +35,7 @@ pub enum CalibrationError {
     },
 }
 
-/// Rail, pads, sleepers and ballast (MODEL.md §2). Per rail seat: one rail, half a sleeper.
+/// Rail, pads, sleepers and ballast (docs/model.md §2). Per rail seat: one rail, half a sleeper.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrackParams {
@@ -67,7 +67,7 @@ pub struct TrackParams {
     pub ballast_damping_ns_per_m: f64,
 }
 
-/// Pitch-plane half bogie (MODEL.md §3).
+/// Pitch-plane half bogie (docs/model.md §3).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct VehicleParams {
@@ -93,7 +93,7 @@ pub struct VehicleParams {
     pub flat_wheel: WheelPosition,
 }
 
-/// Wheel–rail contact (MODEL.md §4).
+/// Wheel–rail contact (docs/model.md §4).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ContactParams {
@@ -103,7 +103,7 @@ pub struct ContactParams {
     pub hertz_constant_n_per_m1_5: Option<f64>,
 }
 
-/// Train speed and where the run starts (MODEL.md §1).
+/// Train speed and where the run starts (docs/model.md §1).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RunParams {
@@ -123,7 +123,7 @@ pub struct PadSensor {
     pub sleeper: usize,
 }
 
-/// Sensor layout (MODEL.md §1).
+/// Sensor layout (docs/model.md §1).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SensorParams {
@@ -133,7 +133,7 @@ pub struct SensorParams {
     pub pad: Vec<PadSensor>,
 }
 
-/// Output sampling (MODEL.md §6).
+/// Output sampling (docs/model.md §6).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OutputParams {
@@ -161,7 +161,7 @@ pub struct IntegrationParams {
     pub fine_after_strike_s: f64,
 }
 
-/// Parameter ranges of the model population (MODEL.md §5, paper Table 1).
+/// Parameter ranges of the model population (docs/model.md §5, paper Table 1).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PopulationParams {
@@ -201,7 +201,7 @@ pub enum UncertaintyGroup {
     Measurement,
 }
 
-/// One uniform uncertainty source (MODEL.md §7).
+/// One uniform uncertainty source (docs/model.md §7).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct UncertaintySource {
@@ -217,7 +217,7 @@ pub struct UncertaintySource {
     pub max: f64,
 }
 
-/// Identification settings (paper §2–3, MODEL.md §7–8). Not part of a bank's identity.
+/// Identification settings (paper §2–3, docs/model.md §7–8). Not part of a bank's identity.
 /// Keys left out take their defaults.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -251,7 +251,7 @@ pub struct IdentificationParams {
     pub uncertainty: Vec<UncertaintySource>,
 }
 
-/// The calibration document. Units are in the key names; see MODEL.md for the meaning.
+/// The calibration document. Units are in the key names; see docs/model.md for the meaning.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Calibration {
@@ -307,7 +307,7 @@ impl CheckedCalibration {
     }
 
     /// Hertz constant C_H (N/m^1.5): the file's value, or `G^-1.5` with
-    /// `G = 4.57·R_w^-0.149 × 10^-8` (MODEL.md §4).
+    /// `G = 4.57·R_w^-0.149 × 10^-8` (docs/model.md §4).
     pub fn hertz_constant(&self) -> f64 {
         self.contact.hertz_constant_n_per_m1_5.unwrap_or_else(|| {
             let g = 4.57e-8 * self.vehicle.wheel_radius_m.powf(-0.149);
@@ -383,7 +383,7 @@ impl Calibration {
         format!(
             "# wheelflat calibration: train-track model, sensors, sampling, integration and\n\
              # population ranges. Units are in the key names (SI, except speed in km/h and\n\
-             # flat sizes in mm). Defaults follow MODEL.md; see the README for each key.\n\
+             # flat sizes in mm). Defaults follow docs/model.md; docs/calibration.md explains each key.\n\
              # contact.hertz_constant_n_per_m1_5, when absent, is computed from the wheel radius.\n\n{body}"
         )
     }
@@ -397,7 +397,7 @@ mod tests {
     fn default_static_wheel_load_is_about_49_5_kn() {
         let c = Calibration::default().check().unwrap();
         assert!((c.static_wheel_load_n() - 49_540.5).abs() < 1.0);
-        // MODEL.md §4: C_H ≈ 8.3e10 N/m^1.5 for R_w = 0.4 m.
+        // docs/model.md §4: C_H ≈ 8.3e10 N/m^1.5 for R_w = 0.4 m.
         assert!(
             (c.hertz_constant() / 8.3e10 - 1.0).abs() < 0.01,
             "{}",

@@ -9,6 +9,7 @@ use crate::identify::result::{
     ParamRanges, RandomSubsets, WheelRanges,
 };
 use crate::report::canvas::{escape_html, min_max};
+use crate::report::dir_entries;
 
 const RATE_HZ: f64 = 5000.0;
 const SAMPLES: usize = 300;
@@ -233,20 +234,6 @@ fn synthetic() -> Identification {
             ("falsify".into(), 95.0),
         ],
     }
-}
-
-fn dir_entries(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = fs::read_dir(dir)
-        .expect("read dir")
-        .map(|e| {
-            e.expect("dir entry")
-                .file_name()
-                .to_string_lossy()
-                .into_owned()
-        })
-        .collect();
-    names.sort();
-    names
 }
 
 /// Writes the report and checks the files, the JSON round trip and the HTML.
