@@ -361,6 +361,75 @@ pub fn sample_instances(n: usize, k: usize) -> Vec<usize> {
     (0..k).map(|j| ((2 * j + 1) * n) / (2 * k)).collect()
 }
 
+/// A drift check of a whole bank (`bank audit`): K instances spread through it
+/// ([`sample_instances`]), re-simulated in parallel (rayon, one workspace per thread) and
+/// compared with their stored series.
+pub struct BankAudit<'a> {
+    bank: &'a Bank,
+    resim: Resimulator<'a>,
+    picks: Vec<usize>,
+}
+
+impl<'a> BankAudit<'a> {
+    /// Plans the audit of `sample` instances of `bank`, re-simulated with the bank's stored
+    /// calibration or with `calibration`.
+    pub fn new(
+        bank: &'a Bank,
+        calibration: Option<CheckedCalibration>,
+        sample: usize,
+    ) -> Result<BankAudit<'a>, AuditError> {
+        let resim = Resimulator::new(bank, calibration)?;
+        let picks = sample_instances(bank.instances(), sample);
+        Ok(BankAudit { bank, resim, picks })
+    }
+
+    /// The instances it re-simulates, in order.
+    pub fn instances(&self) -> &[usize] {
+        &self.picks
+    }
+
+    /// Re-simulates every planned instance; the results are in the order of
+    /// [`BankAudit::instances`] whatever the number of threads.
+    pub fn run(&self) -> Result<BankAuditReport, AuditError> {
+        use rayon::prelude::*;
+        let results = self
+            .picks
+            .par_iter()
+            .map_init(
+                || self.resim.workspace(),
+                |ws, &i| -> Result<Resimulation, AuditError> {
+                    let stored = self.bank.read_instance(i)?;
+                    let r = self.resim.run(&stored, ws)?;
+                    Ok(compare(&stored, &r, self.bank))
+                },
+            )
+            .collect::<Result<_, _>>()?;
+        Ok(BankAuditReport { results })
+    }
+}
+
+/// What a bank audit found.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BankAuditReport {
+    /// One comparison per re-simulated instance, in the order of [`BankAudit::instances`].
+    pub results: Vec<Resimulation>,
+}
+
+impl BankAuditReport {
+    /// The instances that differ from the bank.
+    pub fn drifted(&self) -> Vec<&Resimulation> {
+        self.results.iter().filter(|r| !r.identical).collect()
+    }
+
+    /// The largest |difference| over the drifted instances (kN; 0 without drift).
+    pub fn worst_kn(&self) -> f64 {
+        self.drifted()
+            .iter()
+            .map(|r| r.max_abs_kn)
+            .fold(0.0f64, f64::max)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -18,7 +18,7 @@
 use crate::bank::Bank;
 use crate::identify::synth::{draw_sources, resolution_step_kn};
 use crate::identify::{
-    Extras, FlatFreeCheck, Identification, Identifier, IdentifyError, Measurement,
+    Extras, FlatFreeCheck, Identification, Identifier, IdentifyError, Measurement, Severity,
 };
 use crate::model::calibration::{UncertaintyGroup, UncertaintyKind};
 use crate::model::{CheckedCalibration, Flat, Record, SimError, Simulator, WheelPosition};
@@ -360,8 +360,8 @@ pub struct WheelRow {
     pub l0_mm: Option<[f64; 2]>,
     /// Surviving instances with the flat on this wheel.
     pub cms_count: usize,
-    /// Severity class (rule in [`severity`]).
-    pub severity: String,
+    /// Severity class (rule in [`Severity::of_wheel`]).
+    pub severity: Severity,
 }
 
 /// One bogie's outcome.
@@ -396,20 +396,6 @@ pub struct TrainResult {
     pub warnings: Vec<String>,
     /// Wall time (ms).
     pub total_ms: f64,
-}
-
-/// Severity from the upper bound of L0, the conservative end (an under-estimated flat is the
-/// safety risk): `urgent` when it reaches `urgent_l0_mm` (remove within 24 h), `inspect` when
-/// it reaches `inspect_l0_mm`, else `monitor`; `none` without a flat; `inspect` when the model
-/// is refuted (something the model lacks is on the wheel or the track).
-pub fn severity(flat: &str, l0: Option<[f64; 2]>, urgent_mm: f64, inspect_mm: f64) -> String {
-    match (flat, l0) {
-        ("no", _) => "none".into(),
-        ("yes", Some([_, hi])) if hi >= urgent_mm => "urgent".into(),
-        ("yes", Some([_, hi])) if hi >= inspect_mm => "inspect".into(),
-        ("yes", Some(_)) => "monitor".into(),
-        _ => "inspect".into(),
-    }
 }
 
 /// Identifies every bogie of a train recording.
@@ -474,7 +460,7 @@ pub fn identify_train(
                 flat: flat.into(),
                 l0_mm: l0,
                 cms_count: count,
-                severity: severity(flat, l0, s.urgent_l0_mm, s.inspect_l0_mm),
+                severity: Severity::of_wheel(flat, l0, s.urgent_l0_mm, s.inspect_l0_mm),
             });
         }
         results.push(BogieResult {
@@ -490,115 +476,10 @@ pub fn identify_train(
         bank_id: identifier.bank().metadata().bank_id.clone(),
         wheels: rows,
         bogies: results,
-        severity_rule: format!(
-            "none: the good-wheel check passes at every PIP at φ^(1/bogies) = {:.4} (no flat can be told from the measurement); otherwise by the upper L0 bound of the wheel's candidate model set: urgent (remove within 24 h) from {} mm, inspect from {} mm, monitor below; inspect when every instance is falsified (the model is refuted)",
-            phi_bogie, s.urgent_l0_mm, s.inspect_l0_mm
-        ),
+        severity_rule: Severity::train_rule(phi_bogie, s),
         warnings,
         total_ms: clock.elapsed().as_secs_f64() * 1e3,
     })
-}
-
-/// The table as CSV.
-pub fn table_csv(r: &TrainResult) -> String {
-    let mut s = String::from("car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity\n");
-    for w in &r.wheels {
-        let (lo, hi) = w.l0_mm.map_or((String::new(), String::new()), |[a, b]| {
-            (format!("{a:.1}"), format!("{b:.1}"))
-        });
-        s += &format!(
-            "{},{},{},{},{lo},{hi},{},{}\n",
-            w.car,
-            w.bogie,
-            w.wheel.name(),
-            w.flat,
-            w.cms_count,
-            w.severity
-        );
-    }
-    s
-}
-
-/// The table for people.
-pub fn table_text(r: &TrainResult) -> String {
-    let mut s = format!(
-        "{:<4} {:<6} {:<9} {:<8} {:<16} {:>7}  {}\n",
-        "car", "bogie", "wheel", "flat", "L0 (mm)", "CMS", "severity"
-    );
-    for w in &r.wheels {
-        let l0 = w
-            .l0_mm
-            .map_or("—".to_string(), |[a, b]| format!("[{a:.0}, {b:.0}]"));
-        s += &format!(
-            "{:<4} {:<6} {:<9} {:<8} {:<16} {:>7}  {}\n",
-            w.car,
-            w.bogie,
-            w.wheel.name(),
-            w.flat,
-            l0,
-            w.cms_count,
-            w.severity
-        );
-    }
-    s
-}
-
-/// The HTML section (a self-contained page).
-pub fn table_html(r: &TrainResult) -> String {
-    let esc = |t: &str| {
-        t.replace('&', "&amp;")
-            .replace('<', "&lt;")
-            .replace('>', "&gt;")
-    };
-    let mut h = String::from(
-        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>wheelflat: train</title>\n<style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}td,th{border:1px solid #bbb;padding:4px 8px}td.num{text-align:right}.urgent{background:#f8d0d0}.inspect{background:#fbe7c0}.monitor{background:#e8f0d8}</style></head><body>\n",
-    );
-    h += &format!(
-        "<h1>Whole-train identification</h1>\n<p>Recording <code>{}</code>, bank <code>{}</code>, {} bogies in {:.0} ms.</p>\n<h2>Wheels</h2>\n<table><thead><tr><th>car</th><th>bogie</th><th>wheel</th><th>flat</th><th>L0 (mm)</th><th>CMS</th><th>severity</th></tr></thead><tbody>\n",
-        esc(&r.recording),
-        esc(&r.bank_id),
-        r.bogies.len(),
-        r.total_ms
-    );
-    for w in &r.wheels {
-        let l0 = w
-            .l0_mm
-            .map_or("—".to_string(), |[a, b]| format!("[{a:.0}, {b:.0}]"));
-        h += &format!(
-            "<tr class=\"{}\"><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td><td>{}</td><td>{l0}</td><td class=\"num\">{}</td><td>{}</td></tr>\n",
-            esc(&w.severity),
-            w.car,
-            w.bogie,
-            w.wheel.name(),
-            esc(&w.flat),
-            w.cms_count,
-            esc(&w.severity)
-        );
-    }
-    h += &format!(
-        "</tbody></table>\n<p>Severity rule: {}.</p>\n",
-        esc(&r.severity_rule)
-    );
-    for w in &r.warnings {
-        h += &format!("<p><strong>Warning:</strong> {}</p>\n", esc(w));
-    }
-    h += "<h2>Bogies</h2>\n<ul>\n";
-    for b in &r.bogies {
-        let text = match &b.identification {
-            None => format!(
-                "good-wheel check passes at all {} PIPs (closest {:.2} kN inside)",
-                b.flat_free.points,
-                -b.flat_free.worst.as_ref().map_or(0.0, |w| w.4)
-            ),
-            Some(id) => format!(
-                "good-wheel check fails at {} of {} PIPs; {}",
-                b.flat_free.outside, b.flat_free.points, id.summary
-            ),
-        };
-        h += &format!("<li>bogie {}: {}</li>\n", b.bogie, esc(&text));
-    }
-    h += "</ul>\n</body></html>\n";
-    h
 }
 
 #[cfg(test)]
@@ -636,14 +517,5 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("count must be even"), "{e}");
-    }
-
-    #[test]
-    fn severity_follows_the_stated_rule() {
-        assert_eq!(severity("no", None, 40.0, 25.0), "none");
-        assert_eq!(severity("yes", Some([30.0, 41.0]), 40.0, 25.0), "urgent");
-        assert_eq!(severity("yes", Some([20.0, 30.0]), 40.0, 25.0), "inspect");
-        assert_eq!(severity("yes", Some([18.0, 24.0]), 40.0, 25.0), "monitor");
-        assert_eq!(severity("unknown", None, 40.0, 25.0), "inspect");
     }
 }

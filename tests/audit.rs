@@ -4,22 +4,16 @@
 
 mod common;
 
-use assert_cmd::Command;
-use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use common::{cached_bank, small_calibration, wheelflat, CachedBank};
+use std::path::Path;
 use wheelflat::audit::{self, Resimulator};
 use wheelflat::bank::Bank;
 use wheelflat::identify::{synth, Extras, Identifier, Measurement};
-use wheelflat::model::{Calibration, CheckedCalibration, Flat};
+use wheelflat::model::{Calibration, Flat};
 
-fn wheelflat() -> Command {
-    Command::new(assert_cmd::cargo::cargo_bin("wheelflat"))
-}
-
-/// 400 instances over narrow ranges around the synthetic flat, 400-sample windows.
-fn small_calibration() -> Calibration {
-    let mut c = Calibration::default();
-    c.output.window_samples = 400;
+/// Narrow ranges around the synthetic flat, 400-sample windows.
+fn audit_calibration() -> Calibration {
+    let mut c = small_calibration(400);
     c.population.length_mm = [40.0, 80.0];
     c.population.depth_mm = [0.3, 0.6];
     c.population.curvature_mm = [0.0, 0.1];
@@ -27,13 +21,14 @@ fn small_calibration() -> Calibration {
     c
 }
 
-fn small_bank() -> &'static (PathBuf, CheckedCalibration) {
-    static BANK: OnceLock<(PathBuf, CheckedCalibration)> = OnceLock::new();
-    BANK.get_or_init(|| {
-        let cal = small_calibration().check().unwrap();
-        let dir = common::build_bank(&cal, "audit-bank", 400, 150);
-        (dir, cal)
-    })
+/// 400 instances of [`audit_calibration`], 150 per shard file.
+fn small_bank() -> &'static CachedBank {
+    cached_bank(
+        "audit-bank",
+        || audit_calibration().check().unwrap(),
+        400,
+        150,
+    )
 }
 
 #[test]
@@ -74,7 +69,7 @@ fn a_drifted_calibration_is_reported_and_fails() {
     let (dir, _) = small_bank();
     let tmp = tempfile::tempdir().unwrap();
     // The track was recalibrated: pads 10 % stiffer.
-    let mut drifted = small_calibration();
+    let mut drifted = audit_calibration();
     drifted.track.pad_stiffness_n_per_m *= 1.1;
     let path = tmp.path().join("drifted.toml");
     std::fs::write(&path, drifted.to_toml_string()).unwrap();
@@ -98,7 +93,7 @@ fn a_drifted_calibration_is_reported_and_fails() {
     );
     // The same calibration written out unchanged is no drift.
     let same = tmp.path().join("same.toml");
-    std::fs::write(&same, small_calibration().to_toml_string()).unwrap();
+    std::fs::write(&same, audit_calibration().to_toml_string()).unwrap();
     wheelflat()
         .args(["bank", "audit"])
         .arg(dir)
@@ -214,4 +209,36 @@ fn audit_command_writes_its_report_and_names_bad_instances() {
         stderr.contains("instance 400 is not in the bank (it holds instances 0 to 399)"),
         "{stderr}"
     );
+}
+
+/// `bank audit`'s library side ([`audit::BankAudit`]): its instances are the spread sample,
+/// and one thread and many give the same report, equal to re-simulating one by one.
+#[test]
+fn a_bank_audit_is_the_same_on_one_thread_and_many() {
+    let (dir, _) = small_bank();
+    let b = Bank::open(dir).unwrap();
+    let plan = audit::BankAudit::new(&b, None, 7).unwrap();
+    assert_eq!(plan.instances(), audit::sample_instances(400, 7).as_slice());
+    let on = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| plan.run().unwrap())
+    };
+    let one = on(1);
+    assert_eq!(one, on(4));
+    let resim = Resimulator::new(&b, None).unwrap();
+    let mut ws = resim.workspace();
+    let by_hand: Vec<audit::Resimulation> = plan
+        .instances()
+        .iter()
+        .map(|&i| {
+            let stored = b.read_instance(i).unwrap();
+            audit::compare(&stored, &resim.run(&stored, &mut ws).unwrap(), &b)
+        })
+        .collect();
+    assert_eq!(one.results, by_hand);
+    assert!(one.drifted().is_empty());
+    assert_eq!(one.worst_kn().to_bits(), 0.0f64.to_bits());
 }

@@ -1,11 +1,9 @@
 //! The real `wheelflat` binary on temporary folders.
 
-use assert_cmd::Command;
-use std::path::Path;
+mod common;
 
-fn wheelflat() -> Command {
-    Command::cargo_bin("wheelflat").unwrap()
-}
+use common::wheelflat;
+use std::path::Path;
 
 fn read(p: &Path) -> String {
     std::fs::read_to_string(p).unwrap()

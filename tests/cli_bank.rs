@@ -1,55 +1,25 @@
 //! `wheelflat bank …` and the operational scripts (nightly regeneration, Slurm job array),
 //! driven as an operator would, on tiny banks with short windows.
 
+mod common;
+
 use assert_cmd::Command;
+use common::{small_calibration, wheelflat, wheelflat_path, write_calibration};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
-
-fn binary() -> PathBuf {
-    assert_cmd::cargo::cargo_bin("wheelflat")
-}
-
-fn wheelflat() -> Command {
-    Command::new(binary())
-}
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
 /// A calibration file with 50-sample windows.
-fn small_calibration(dir: &Path) -> PathBuf {
-    let out = wheelflat().arg("calibration").output().unwrap();
-    let text = String::from_utf8(out.stdout)
-        .unwrap()
-        .replace("window_samples = 1000", "window_samples = 50");
-    let path = dir.join("track.toml");
-    std::fs::write(&path, text).unwrap();
-    path
+fn calibration_file(dir: &Path) -> PathBuf {
+    write_calibration(&small_calibration(50), dir)
 }
 
+/// The files of a bank folder, without the nightly script's `.regenerate*` working files.
 fn files(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            let name = p.file_name().unwrap().to_string_lossy().to_string();
-            if name.starts_with(".regenerate") {
-                continue;
-            }
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                out.push((
-                    p.strip_prefix(dir).unwrap().to_path_buf(),
-                    std::fs::read(&p).unwrap(),
-                ));
-            }
-        }
-    }
-    out.sort();
-    out
+    common::files(dir, &[".regenerate"])
 }
 
 fn stdout_of(cmd: &mut Command) -> String {
@@ -60,7 +30,7 @@ fn stdout_of(cmd: &mut Command) -> String {
 #[test]
 fn generate_info_verify_and_a_corrupt_file_is_named() {
     let tmp = tempfile::tempdir().unwrap();
-    let cal = small_calibration(tmp.path());
+    let cal = calibration_file(tmp.path());
     let bank = tmp.path().join("bank");
     let out = stdout_of(
         wheelflat()
@@ -131,7 +101,7 @@ fn generate_info_verify_and_a_corrupt_file_is_named() {
 #[test]
 fn a_killed_run_resumes_and_ends_byte_identical() {
     let tmp = tempfile::tempdir().unwrap();
-    let cal = small_calibration(tmp.path());
+    let cal = calibration_file(tmp.path());
     let args = [
         "bank",
         "generate",
@@ -153,7 +123,7 @@ fn a_killed_run_resumes_and_ends_byte_identical() {
         .success();
 
     let killed = tmp.path().join("killed");
-    let mut child = std::process::Command::new(binary())
+    let mut child = std::process::Command::new(wheelflat_path())
         .args(args)
         .arg("--calibration")
         .arg(&cal)
@@ -205,7 +175,7 @@ fn a_killed_run_resumes_and_ends_byte_identical() {
 #[test]
 fn slurm_array_then_merge_equals_a_single_run() {
     let tmp = tempfile::tempdir().unwrap();
-    let cal = small_calibration(tmp.path());
+    let cal = calibration_file(tmp.path());
     let extra = ["--instances", "30", "--shard-size", "5"];
     let single = tmp.path().join("single");
     wheelflat()
@@ -226,7 +196,7 @@ fn slurm_array_then_merge_equals_a_single_run() {
             .arg(&cal)
             .arg(&cluster)
             .args(extra)
-            .env("WHEELFLAT", binary())
+            .env("WHEELFLAT", wheelflat_path())
             .output()
             .unwrap()
     };
@@ -236,7 +206,7 @@ fn slurm_array_then_merge_equals_a_single_run() {
             .arg(&cal)
             .arg(&cluster)
             .args(extra)
-            .env("WHEELFLAT", binary())
+            .env("WHEELFLAT", wheelflat_path())
             .env("SLURM_ARRAY_TASK_ID", task.to_string())
             .env("SLURM_ARRAY_TASK_COUNT", "3")
             .env("SLURM_CPUS_PER_TASK", "1")
@@ -257,7 +227,7 @@ fn slurm_array_then_merge_equals_a_single_run() {
         .arg(&cal)
         .arg(&cluster)
         .args(extra)
-        .env("WHEELFLAT", binary())
+        .env("WHEELFLAT", wheelflat_path())
         .env("SLURM_ARRAY_TASK_ID", "1")
         .env("SLURM_ARRAY_TASK_COUNT", "3")
         .status()
@@ -279,7 +249,7 @@ fn slurm_array_then_merge_equals_a_single_run() {
 #[test]
 fn nightly_script_rebuilds_only_when_the_calibration_changes() {
     let tmp = tempfile::tempdir().unwrap();
-    let cal = small_calibration(tmp.path());
+    let cal = calibration_file(tmp.path());
     let bank = tmp.path().join("bank");
     let run = || {
         let out = std::process::Command::new("bash")
@@ -287,7 +257,7 @@ fn nightly_script_rebuilds_only_when_the_calibration_changes() {
             .arg(&cal)
             .arg(&bank)
             .args(["--instances", "10", "--shard-size", "5"])
-            .env("WHEELFLAT", binary())
+            .env("WHEELFLAT", wheelflat_path())
             .output()
             .unwrap();
         assert!(

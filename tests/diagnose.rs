@@ -3,23 +3,16 @@
 
 mod common;
 
+use common::{cached_bank, narrow_calibration, wheelflat_path, CachedBank};
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 use wheelflat::bank::Bank;
 use wheelflat::diagnose;
 use wheelflat::identify::{synth, Extras, Identifier, Measurement};
 use wheelflat::model::{CheckedCalibration, Effect, Flat};
 
-/// A CI-sized bank (the identification tests' calibration), built once per test binary:
-/// the tests run in parallel and must not generate it side by side.
-fn small_bank() -> (PathBuf, CheckedCalibration) {
-    static BANK: OnceLock<(PathBuf, CheckedCalibration)> = OnceLock::new();
-    BANK.get_or_init(|| {
-        let cal = common::narrow_calibration();
-        let dir = common::build_bank(&cal, "diagnose-bank", 2000, 1000);
-        (dir, cal)
-    })
-    .clone()
+/// A CI-sized bank (the identification tests' calibration), 2,000 instances.
+fn small_bank() -> CachedBank {
+    cached_bank("diagnose-bank", narrow_calibration, 2000, 1000).clone()
 }
 
 fn locate(id: &Identifier, cal: &CheckedCalibration, effects: Vec<Effect>) -> diagnose::Located {
@@ -226,7 +219,7 @@ fn the_goodness_of_fit_z_is_standard_normal_for_chi2_at_its_quantiles() {
 #[test]
 fn the_noise_model_follows_the_uncertainty_table() {
     use wheelflat::diagnose::fit::NoiseModel;
-    let cal = common::narrow_calibration();
+    let cal = narrow_calibration();
     let n = NoiseModel::from_settings(&cal.identification);
     // Absolute sources: ±1 kN noise and ±50 N resolution: σ² = 2²/12 + 0.1²/12.
     let sigma = ((4.0 + 0.01) / 12.0f64).sqrt();
@@ -243,7 +236,7 @@ fn the_noise_model_follows_the_uncertainty_table() {
 #[test]
 fn the_flat_fit_by_resimulation_recovers_a_known_flat() {
     use wheelflat::diagnose::fit::{self, levenberg_marquardt, NoiseModel, Observed, Problem};
-    let cal = common::narrow_calibration();
+    let cal = narrow_calibration();
     let noise = NoiseModel::from_settings(&cal.identification);
     // The "measurement": the model's own prediction of a known flat on all sensors, times the
     // prior sensor factor, no noise.
@@ -300,7 +293,7 @@ fn the_diagnose_command_reports_clean_data_and_names_a_missing_file() {
     std::fs::write(&csv, &syn.csv).unwrap();
     let diagnose = |measured: &Path, out: &Path| {
         let _ = std::fs::remove_dir_all(out);
-        std::process::Command::new(env!("CARGO_BIN_EXE_wheelflat"))
+        std::process::Command::new(wheelflat_path())
             .args(["diagnose", "--bank"])
             .arg(&dir)
             .arg("--measured")

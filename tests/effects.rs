@@ -3,6 +3,9 @@
 //! scales exactly its sensor, and the irregularities act where, when and as much as their
 //! equations say. Tolerances are stated next to each assertion.
 
+mod common;
+
+use common::wheelflat_path;
 use wheelflat::model::WheelPosition;
 use wheelflat::model::{
     Calibration, CheckedCalibration, Effect, Flat, Record, Response, Simulator,
@@ -256,7 +259,7 @@ fn an_out_of_round_wheel_shakes_its_own_wheel_most() {
 fn synth_hides_effects_and_names_bad_ones() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("m.csv");
-    let bin = assert_cmd::cargo::cargo_bin("wheelflat");
+    let bin = wheelflat_path();
     let ok = std::process::Command::new(&bin)
         .args([
             "synth",

@@ -3,19 +3,15 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use common::{cached_bank, narrow_calibration, CachedBank};
+use std::path::Path;
 use wheelflat::bank::Bank;
 use wheelflat::identify::{coverage, synth, Extras, Identifier, IdentifyError, Measurement};
-use wheelflat::model::{CheckedCalibration, Flat};
+use wheelflat::model::Flat;
 
-fn small_bank() -> &'static (PathBuf, CheckedCalibration) {
-    static BANK: OnceLock<(PathBuf, CheckedCalibration)> = OnceLock::new();
-    BANK.get_or_init(|| {
-        let cal = common::narrow_calibration();
-        let dir = common::build_bank(&cal, "identify-bank", 2000, 1000);
-        (dir, cal)
-    })
+/// A CI-sized bank, 2,000 instances of the narrow profile.
+fn small_bank() -> &'static CachedBank {
+    cached_bank("identify-bank", narrow_calibration, 2000, 1000)
 }
 
 fn identifier() -> Identifier {

@@ -4,31 +4,24 @@
 
 mod common;
 
-use assert_cmd::Command;
-use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
-use wheelflat::bank::{self, Bank, GenerateOptions, Quiet, StorageFormat};
+use common::{cached_bank, options, small_calibration, wheelflat, CachedBank};
+use std::path::Path;
+use wheelflat::bank::{self, Bank, Quiet};
 use wheelflat::identify::{Identifier, Measurement};
-use wheelflat::model::{Calibration, CheckedCalibration};
+use wheelflat::model::Calibration;
 use wheelflat::train::{self, TrainSpec};
 
-fn wheelflat() -> Command {
-    Command::new(assert_cmd::cargo::cargo_bin("wheelflat"))
-}
-
 /// The train profile over narrower sizes, 600-sample windows, 4,000 instances.
-fn small_train_bank() -> &'static (PathBuf, CheckedCalibration) {
-    static BANK: OnceLock<(PathBuf, CheckedCalibration)> = OnceLock::new();
-    BANK.get_or_init(|| {
+fn small_train_bank() -> &'static CachedBank {
+    let calibration = || {
         let mut c = Calibration::train_profile();
         c.output.window_samples = 600;
         c.population.length_mm = [40.0, 100.0];
         c.population.depth_mm = [0.25, 0.85];
         c.population.curvature_mm = [0.0, 0.25];
-        let cal = c.check().unwrap();
-        let dir = common::build_bank(&cal, "train-bank", 4000, 1000);
-        (dir, cal)
-    })
+        c.check().unwrap()
+    };
+    cached_bank("train-bank", calibration, 4000, 1000)
 }
 
 #[test]
@@ -44,7 +37,7 @@ fn flats_are_found_on_the_right_wheels_and_good_wheels_stay_good() {
     assert_eq!(times.len(), 24);
     let bogies = train::bogies_from_triggers(cal, Path::new("t.csv"), &times).unwrap();
     let r = train::identify_train(&id, &m, &bogies).unwrap();
-    print!("{}", train::table_text(&r));
+    print!("{}", wheelflat::report::train::table_text(&r));
     assert_eq!(r.wheels.len(), 24);
     for w in &r.wheels {
         let t = truth
@@ -71,7 +64,7 @@ fn flats_are_found_on_the_right_wheels_and_good_wheels_stay_good() {
         }
     }
     // The table's CSV has a header and one line per wheel.
-    let csv = train::table_csv(&r);
+    let csv = wheelflat::report::train::table_csv(&r);
     assert_eq!(csv.lines().count(), 25);
     assert!(csv.starts_with("car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity\n"));
 }
@@ -133,19 +126,9 @@ fn the_commands_write_the_report_and_refuse_a_bank_that_does_not_cover_a_train()
     );
 
     // The paper's profile (trailing wheel, 1 m of X_p) does not cover a train.
-    let mut paper = Calibration::default();
-    paper.output.window_samples = 50;
-    let paper = paper.check().unwrap();
+    let paper = small_calibration(50).check().unwrap();
     let pdir = tmp.path().join("paper-bank");
-    let opts = GenerateOptions {
-        instances: 8,
-        seed: 0,
-        shard_size: 8,
-        machine_shard: None,
-        format: StorageFormat::default(),
-        simulate_missing: true,
-    };
-    bank::generate(&paper, &pdir, &opts, &Quiet).unwrap();
+    bank::generate(&paper, &pdir, &options(8, 8), &Quiet).unwrap();
     let err = wheelflat()
         .arg("train")
         .arg("--bank")

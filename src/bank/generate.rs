@@ -17,19 +17,15 @@
 
 use super::population::Population;
 use super::schema::{
-    bank_id, calibration_sha256, sensor_axes, sha256_hex, BankMetadata, Manifest, ManifestFile,
-    ShardInfo, FORMAT_VERSION, MODEL_REVISION,
+    bank_id, calibration_sha256, sensor_axes, sha256_hex, shard_matches, BankMetadata, Manifest,
+    ManifestFile, ShardInfo, FORMAT_VERSION, MODEL_REVISION,
 };
+pub use super::schema::{shard_file_name, CURRENT, MANIFEST};
 use super::writer::{write_shard, InstanceRow, StorageFormat};
 use super::BankError;
 use crate::model::{CheckedCalibration, Flat, Record, Simulator};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
-
-/// Name of the pointer file in a bank directory.
-pub const CURRENT: &str = "CURRENT";
-/// Name of the manifest in a version directory.
-pub const MANIFEST: &str = "manifest.json";
 
 /// What to generate.
 #[derive(Debug, Clone, PartialEq)]
@@ -96,11 +92,6 @@ pub enum Outcome {
     },
 }
 
-/// Name of shard file `index` of `count`.
-pub fn shard_file_name(index: usize, count: usize) -> String {
-    format!("shard-{index:05}-of-{count:05}.parquet")
-}
-
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> BankError + '_ {
     move |source| BankError::Io {
         path: path.to_path_buf(),
@@ -162,7 +153,7 @@ pub fn generate(
     for entry in std::fs::read_dir(&version).map_err(io_err(&version))? {
         let entry = entry.map_err(io_err(&version))?;
         let name = entry.file_name().to_string_lossy().to_string();
-        if name.starts_with('.') && name.ends_with(".tmp") {
+        if crate::atomic::is_temporary(&name) {
             std::fs::remove_file(entry.path()).map_err(io_err(&entry.path()))?;
         }
     }
@@ -226,7 +217,7 @@ pub fn generate(
     for &f in &files {
         let path = version.join(shard_file_name(f, count));
         let info = shard_info(f);
-        if path.is_file() && super::reader::shard_matches(&path, &id, &info).is_ok() {
+        if path.is_file() && shard_matches(&path, &id, &info).is_ok() {
             resumed += info.rows;
         } else {
             missing.push(f);

@@ -2,12 +2,15 @@
 //! (wide layout: one f32 column per sensor sample), read back through a memory map.
 //!
 //! - [`population`]: Hammersley sampling of (L, d, c, X_p).
-//! - [`schema`]: column names, metadata, manifest.
+//! - [`schema`]: file and column names, metadata (written and read back), manifest; both
+//!   [`generate`] and [`reader`] build on it, neither on the other.
 //! - [`writer`]: one shard file.
 //! - [`generate`]: parallel generation, resume, versions and the `CURRENT` pointer.
 //! - [`reader`]: memory-mapped reading of projected columns; verification.
+//! - [`info`]: a bank's size and parameter ranges.
 
 pub mod generate;
+pub mod info;
 pub mod population;
 pub mod reader;
 pub mod schema;

@@ -1,5 +1,5 @@
 //! The model population: a Hammersley point set over the calibration's parameter ranges
-//! (MODEL.md §5 and §8, paper §4.3.3).
+//! (docs/model.md §5 and §8, paper §4.3.3).
 //!
 //! Point i of N in the unit 4-cube is `((i + ½)/N, φ₂(i), φ₃(i), φ₅(i))`, `φ_b` the radical
 //! inverse in base b, mapped to (L, d, c/c_max, X_p). The curvature is sampled as a fraction of

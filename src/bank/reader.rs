@@ -4,16 +4,16 @@
 //! and parses each footer once. [`Bank::read_columns`] then decodes only the projected columns
 //! (`ProjectionMask`) straight from the mapped pages.
 
-use super::generate::{CURRENT, MANIFEST};
 use super::schema::{
-    sha256_hex, BankMetadata, Manifest, ShardInfo, FORMAT_VERSION, METADATA_KEY, PARAMETER_COLUMNS,
+    open_shard, parquet_err, sha256_hex, BankMetadata, Manifest, CURRENT, FORMAT_VERSION, MANIFEST,
+    PARAMETER_COLUMNS,
 };
 use super::BankError;
 use arrow_array::{Array, Float32Array, Float64Array, UInt32Array};
 use bytes::Bytes;
 use parquet::arrow::arrow_reader::{
-    ArrowReaderMetadata, ArrowReaderOptions, ParquetRecordBatchReader,
-    ParquetRecordBatchReaderBuilder, RowSelection, RowSelector,
+    ArrowReaderMetadata, ParquetRecordBatchReader, ParquetRecordBatchReaderBuilder, RowSelection,
+    RowSelector,
 };
 use parquet::arrow::ProjectionMask;
 use rayon::prelude::*;
@@ -80,81 +80,6 @@ pub struct Parameters {
     pub l0_mm: Vec<f64>,
     /// The wheel carrying the flat: 0 leading, 1 trailing.
     pub flat_wheel: Vec<u8>,
-}
-
-fn parquet_err(path: &Path) -> impl Fn(parquet::errors::ParquetError) -> BankError + '_ {
-    move |e| BankError::Corrupt {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    }
-}
-
-/// Maps a file read-only.
-fn map(path: &Path) -> Result<Bytes, BankError> {
-    let file = std::fs::File::open(path).map_err(|source| BankError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    // SAFETY: shard files are written to a temporary name and renamed into place when complete;
-    // no wheelflat process modifies a file after that, so the mapping is not mutated under us.
-    // (Another program truncating the file while it is mapped would be outside this contract.)
-    let mmap = unsafe { memmap2::Mmap::map(&file) }.map_err(|source| BankError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    Ok(Bytes::from_owner(mmap))
-}
-
-/// Reads and parses a shard file's footer and its wheelflat metadata.
-fn open_shard(path: &Path) -> Result<(Bytes, ArrowReaderMetadata, BankMetadata), BankError> {
-    let bytes = map(path)?;
-    let meta =
-        ArrowReaderMetadata::load(&bytes, ArrowReaderOptions::new()).map_err(parquet_err(path))?;
-    let kv = meta
-        .metadata()
-        .file_metadata()
-        .key_value_metadata()
-        .and_then(|kvs| kvs.iter().find(|kv| kv.key == METADATA_KEY))
-        .and_then(|kv| kv.value.clone())
-        .ok_or_else(|| BankError::Corrupt {
-            path: path.to_path_buf(),
-            message: format!("no `{METADATA_KEY}` metadata: not a wheelflat bank file"),
-        })?;
-    let bad = |e: serde_json::Error| BankError::Corrupt {
-        path: path.to_path_buf(),
-        message: format!("bad `{METADATA_KEY}` metadata: {e}"),
-    };
-    let bank_meta: BankMetadata = match serde_json::from_str(&kv) {
-        Ok(m) => m,
-        // The identification settings are not part of a bank's identity: a bank written by a
-        // version with other identification keys opens with today's defaults for them.
-        Err(first) => {
-            let mut v: serde_json::Value = serde_json::from_str(&kv).map_err(bad)?;
-            let dropped = v
-                .get_mut("calibration")
-                .and_then(|c| c.as_object_mut())
-                .and_then(|c| c.remove("identification"))
-                .is_some();
-            if !dropped {
-                return Err(bad(first));
-            }
-            serde_json::from_value(v).map_err(|_| bad(first))?
-        }
-    };
-    Ok((bytes, meta, bank_meta))
-}
-
-/// Checks that a complete shard file belongs to bank `id` and holds `info` (used on resume).
-pub(crate) fn shard_matches(path: &Path, id: &str, info: &ShardInfo) -> Result<(), BankError> {
-    let (_, meta, bank_meta) = open_shard(path)?;
-    let rows = meta.metadata().file_metadata().num_rows() as usize;
-    if bank_meta.bank_id != id || bank_meta.shard != *info || rows != info.rows {
-        return Err(BankError::Corrupt {
-            path: path.to_path_buf(),
-            message: "belongs to another bank or holds other rows".into(),
-        });
-    }
-    Ok(())
 }
 
 /// The version directory a bank path designates: `DIR/CURRENT`'s target, or `DIR` itself when

@@ -1,11 +1,26 @@
-//! The bank's file layout: Parquet schema (wide, one f32 column per sensor sample), the
-//! key/value metadata every shard file carries, and the manifest of a complete bank.
+//! The bank's file layout: the names in a bank directory, the Parquet schema (wide, one f32
+//! column per sensor sample), the key/value metadata every shard file carries (and how it is
+//! read back), and the manifest of a complete bank. Both the generator and the reader build
+//! on this module; neither depends on the other.
 
+use super::BankError;
 use crate::model::{Calibration, CheckedCalibration};
 use arrow_schema::{DataType, Field, Schema};
+use bytes::Bytes;
+use parquet::arrow::arrow_reader::{ArrowReaderMetadata, ArrowReaderOptions};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
+use std::path::Path;
 use std::sync::Arc;
+
+/// Name of the pointer file in a bank directory.
+pub const CURRENT: &str = "CURRENT";
+/// Name of the manifest in a version directory.
+pub const MANIFEST: &str = "manifest.json";
+/// Name of shard file `index` of `count`.
+pub fn shard_file_name(index: usize, count: usize) -> String {
+    format!("shard-{index:05}-of-{count:05}.parquet")
+}
 
 /// Version of the on-disk format (schema, metadata and manifest).
 pub const FORMAT_VERSION: u32 = 2;
@@ -197,6 +212,84 @@ pub fn arrow_schema(axes: &[SensorAxis]) -> Arc<Schema> {
 /// Index in the schema of sample `k` of sensor number `s`.
 pub fn sample_column_index(axes: &[SensorAxis], s: usize, k: usize) -> usize {
     1 + PARAMETER_COLUMNS.len() + axes[..s].iter().map(|a| a.samples).sum::<usize>() + k
+}
+
+/// A Parquet error on `path` as a corrupt-file error.
+pub(crate) fn parquet_err(path: &Path) -> impl Fn(parquet::errors::ParquetError) -> BankError + '_ {
+    move |e| BankError::Corrupt {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+/// Maps a file read-only.
+fn map(path: &Path) -> Result<Bytes, BankError> {
+    let file = std::fs::File::open(path).map_err(|source| BankError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    // SAFETY: shard files are written to a temporary name and renamed into place when complete;
+    // no wheelflat process modifies a file after that, so the mapping is not mutated under us.
+    // (Another program truncating the file while it is mapped would be outside this contract.)
+    let mmap = unsafe { memmap2::Mmap::map(&file) }.map_err(|source| BankError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    Ok(Bytes::from_owner(mmap))
+}
+
+/// Reads and parses a shard file's footer and its wheelflat metadata.
+pub(crate) fn open_shard(
+    path: &Path,
+) -> Result<(Bytes, ArrowReaderMetadata, BankMetadata), BankError> {
+    let bytes = map(path)?;
+    let meta =
+        ArrowReaderMetadata::load(&bytes, ArrowReaderOptions::new()).map_err(parquet_err(path))?;
+    let kv = meta
+        .metadata()
+        .file_metadata()
+        .key_value_metadata()
+        .and_then(|kvs| kvs.iter().find(|kv| kv.key == METADATA_KEY))
+        .and_then(|kv| kv.value.clone())
+        .ok_or_else(|| BankError::Corrupt {
+            path: path.to_path_buf(),
+            message: format!("no `{METADATA_KEY}` metadata: not a wheelflat bank file"),
+        })?;
+    let bad = |e: serde_json::Error| BankError::Corrupt {
+        path: path.to_path_buf(),
+        message: format!("bad `{METADATA_KEY}` metadata: {e}"),
+    };
+    let bank_meta: BankMetadata = match serde_json::from_str(&kv) {
+        Ok(m) => m,
+        // The identification settings are not part of a bank's identity: a bank written by a
+        // version with other identification keys opens with today's defaults for them.
+        Err(first) => {
+            let mut v: serde_json::Value = serde_json::from_str(&kv).map_err(bad)?;
+            let dropped = v
+                .get_mut("calibration")
+                .and_then(|c| c.as_object_mut())
+                .and_then(|c| c.remove("identification"))
+                .is_some();
+            if !dropped {
+                return Err(bad(first));
+            }
+            serde_json::from_value(v).map_err(|_| bad(first))?
+        }
+    };
+    Ok((bytes, meta, bank_meta))
+}
+
+/// Checks that a complete shard file belongs to bank `id` and holds `info` (used on resume).
+pub(crate) fn shard_matches(path: &Path, id: &str, info: &ShardInfo) -> Result<(), BankError> {
+    let (_, meta, bank_meta) = open_shard(path)?;
+    let rows = meta.metadata().file_metadata().num_rows() as usize;
+    if bank_meta.bank_id != id || bank_meta.shard != *info || rows != info.rows {
+        return Err(BankError::Corrupt {
+            path: path.to_path_buf(),
+            message: "belongs to another bank or holds other rows".into(),
+        });
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -1,5 +1,5 @@
 //! Information entropy of the bank's predictions at candidate points, and greedy selection of
-//! the points with the most joint entropy (paper §3.2, MODEL.md §8).
+//! the points with the most joint entropy (paper §3.2, docs/model.md §8).
 //!
 //! At a point, the predictions of all N instances are binned with bin width equal to the
 //! combined-uncertainty interval width there: instances in one bin cannot be told apart by a

@@ -1,4 +1,4 @@
-//! Error-domain model falsification (paper §2.2, MODEL.md §8) and the paper's baselines.
+//! Error-domain model falsification (paper §2.2, docs/model.md §8) and the paper's baselines.
 //!
 //! An instance survives only if `T_low,i ≤ g_i(θ) − y_i ≤ T_high,i` at every comparison point
 //! i; the survivors are the candidate model set (CMS).

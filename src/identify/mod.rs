@@ -1,4 +1,4 @@
-//! Identification from the bank (paper §2–3, MODEL.md §7–8): perceptually important points
+//! Identification from the bank (paper §2–3, docs/model.md §7–8): perceptually important points
 //! of the measured series, joint-entropy selection, error-domain model falsification.
 //!
 //! [`Identifier::new`] opens what is reused across measurements (the memory-mapped bank, its
@@ -13,12 +13,15 @@ pub mod entropy;
 pub mod falsify;
 pub mod measurement;
 pub mod pip;
+pub mod ranges;
 pub mod result;
+pub mod severity;
 pub mod synth;
 pub mod uncertainty;
 
 pub use measurement::Measurement;
 pub use result::Identification;
+pub use severity::Severity;
 
 use crate::bank::{Bank, BankError, Parameters};
 use crate::model::calibration::IdentificationParams;
@@ -27,11 +30,13 @@ use cells::Cells;
 use entropy::{bin_predictions_into, greedy_joint_entropy, Binned};
 use falsify::{falsify, random_subset_counts, residual_minimisation, Point, Resolution};
 use pip::{perceptually_important_points, PipDistance};
+use ranges::{instance, population_ranges, ranges_of};
 use result::{
     Alignment, CandidatePoint, EntropyCurve, Falsification, InstanceParams, MeasuredSeries,
     ParamRanges, RandomSubsets,
 };
 pub use result::{FlatFreeCheck, WheelRanges};
+use severity::summarise;
 use std::path::PathBuf;
 use std::sync::Mutex;
 use std::time::Instant;
@@ -116,59 +121,6 @@ pub struct Identifier {
     uncertainty: CombinedUncertainty,
     buffers: Mutex<Vec<Vec<f32>>>,
     bin_buffers: Mutex<Vec<Binned>>,
-}
-
-/// The parameter ranges of a set of instances: the union of their cells when `cells` is
-/// given (what the bank can resolve), else the hull of the instances themselves.
-fn ranges_of(
-    params: &Parameters,
-    cells: Option<&Cells>,
-    population: &crate::model::calibration::PopulationParams,
-    wheel_radius_m: f64,
-    members: impl Iterator<Item = usize> + Clone,
-) -> Option<ParamRanges> {
-    members.clone().next()?;
-    let r = |v: &[f64], t: usize, clamp: [f64; 2]| {
-        let [lo, hi] = members.clone().fold([f64::MAX, f64::MIN], |[lo, hi], k| {
-            let h = cells.map_or(0.0, |c| c.half_extent(k)[t]);
-            [lo.min(v[k] - h), hi.max(v[k] + h)]
-        });
-        [lo.max(clamp[0]), hi.min(clamp[1])]
-    };
-    let depth_mm = r(&params.depth_mm, 1, population.depth_mm);
-    let l0 = |d: f64| (8.0 * d * wheel_radius_m * 1e3).sqrt();
-    Some(ParamRanges {
-        length_mm: r(&params.length_mm, 0, population.length_mm),
-        depth_mm,
-        curvature_mm: r(&params.curvature_mm, 2, population.curvature_mm),
-        impact_position_m: r(&params.impact_position_m, 3, population.impact_position_m),
-        l0_mm: [l0(depth_mm[0]), l0(depth_mm[1])],
-        flat_wheels: wheels_of(members.map(|k| params.flat_wheel[k])),
-    })
-}
-
-/// The distinct wheels among stored wheel codes, leading first.
-fn wheels_of(codes: impl Iterator<Item = u8>) -> Vec<WheelPosition> {
-    let mut seen = [false; 2];
-    for c in codes {
-        seen[usize::from(c != 0)] = true;
-    }
-    [WheelPosition::Leading, WheelPosition::Trailing]
-        .into_iter()
-        .filter(|w| seen[w.index()])
-        .collect()
-}
-
-fn instance(params: &Parameters, k: usize) -> InstanceParams {
-    InstanceParams {
-        instance: params.instance[k],
-        length_mm: params.length_mm[k],
-        depth_mm: params.depth_mm[k],
-        curvature_mm: params.curvature_mm[k],
-        impact_position_m: params.impact_position_m[k],
-        l0_mm: params.l0_mm[k],
-        flat_wheel: WheelPosition::from_code(params.flat_wheel[k]),
-    }
 }
 
 impl Identifier {
@@ -647,21 +599,7 @@ impl Identifier {
             lap("entropy curves", &mut timings);
         }
 
-        let population = ParamRanges {
-            length_mm: cal.population.length_mm,
-            depth_mm: cal.population.depth_mm,
-            curvature_mm: cal.population.curvature_mm,
-            impact_position_m: cal.population.impact_position_m,
-            l0_mm: [
-                (8.0 * cal.population.depth_mm[0] * cal.vehicle.wheel_radius_m * 1e3).sqrt(),
-                (8.0 * cal.population.depth_mm[1] * cal.vehicle.wheel_radius_m * 1e3).sqrt(),
-            ],
-            flat_wheels: cal
-                .population
-                .flat_wheels
-                .clone()
-                .unwrap_or_else(|| vec![cal.vehicle.flat_wheel]),
-        };
+        let population = population_ranges(cal);
         let refuted = cms.is_empty();
         let (summary, hint) = summarise(&cms_ranges, cms.len(), n, m_final, s);
         Ok(Identification {
@@ -690,39 +628,5 @@ impl Identifier {
             maintenance_hint: hint,
             timings_ms: timings,
         })
-    }
-}
-
-/// The human verdict and the maintenance hint (rule stated in the text).
-fn summarise(
-    r: &Option<ParamRanges>,
-    count: usize,
-    n: usize,
-    m: usize,
-    s: &IdentificationParams,
-) -> (String, String) {
-    match r {
-        None => (
-            format!(
-                "Every one of the {n} model instances is falsified at {m} comparison points (φ = {}): the model class itself is refuted. The measurement shows something the model lacks; run `wheelflat diagnose` to locate and name it.",
-                s.phi
-            ),
-            "No flat size can be given: inspect the wheelset and the track at the sensors before relying on this system.".into(),
-        ),
-        Some(r) => {
-            let summary = format!(
-                "{count} of {n} model instances survive {m} comparison points (φ = {}): flat length L in [{:.0}, {:.0}] mm, depth d in [{:.2}, {:.2}] mm, fresh-flat length L0 in [{:.0}, {:.0}] mm, impact at X_p in [{:.2}, {:.2}] m.",
-                s.phi, r.length_mm[0], r.length_mm[1], r.depth_mm[0], r.depth_mm[1], r.l0_mm[0], r.l0_mm[1], r.impact_position_m[0], r.impact_position_m[1]
-            );
-            let upper = r.l0_mm[1];
-            let hint = if upper >= s.urgent_l0_mm {
-                format!("Remove the wheelset from service within 24 hours: the largest L0 that fits the measurement ({upper:.0} mm) reaches the urgent limit of {:.0} mm (rule: upper L0 bound ≥ urgent_l0_mm).", s.urgent_l0_mm)
-            } else if upper >= s.inspect_l0_mm {
-                format!("Inspect the wheel at the next opportunity: the largest L0 that fits ({upper:.0} mm) is between the inspection limit {:.0} mm and the urgent limit {:.0} mm.", s.inspect_l0_mm, s.urgent_l0_mm)
-            } else {
-                format!("Monitor: the largest L0 that fits ({upper:.0} mm) is below the inspection limit of {:.0} mm.", s.inspect_l0_mm)
-            };
-            (summary, hint)
-        }
     }
 }

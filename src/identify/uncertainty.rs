@@ -1,5 +1,5 @@
 //! The combined uncertainty at a comparison point and its falsification thresholds
-//! (MODEL.md §7–8, paper §2.2 and Table 2).
+//! (docs/model.md §7–8, paper §2.2 and Table 2).
 //!
 //! Every source is uniform. With `y` the force at the point, model sources give `e_model =
 //! y·Σ relative + Σ absolute` (prediction minus truth) and measurement sources `e_meas` the same

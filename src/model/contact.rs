@@ -1,4 +1,4 @@
-//! Nonlinear Hertz wheel–rail contact (MODEL.md §4) and the per-step contact solve.
+//! Nonlinear Hertz wheel–rail contact (docs/model.md §4) and the per-step contact solve.
 
 /// Hertz law `F = C_H·δ^1.5` for `δ > 0`, `F = 0` otherwise (loss of contact).
 #[inline]

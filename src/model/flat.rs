@@ -1,6 +1,6 @@
 //! The wheel flat: its geometry (paper Eq. 9) and where it strikes the rail.
 
-use super::calibration::WheelPosition;
+use super::wheel::WheelPosition;
 
 use thiserror::Error;
 
@@ -115,6 +115,14 @@ impl Flat {
         (8.0 * self.depth_m * wheel_radius_m).sqrt()
     }
 
+    /// Length of a fresh flat of depth `depth_mm` on a wheel of radius `wheel_radius_m`,
+    /// `L0 = sqrt(8·d·R_w)` (paper §4.3.3), in millimetres: the one formula for L0 from a
+    /// depth in mm (ranges of depths, population bounds), where [`Flat::fresh_length_m`]
+    /// serves a flat.
+    pub fn fresh_length_mm(depth_mm: f64, wheel_radius_m: f64) -> f64 {
+        (8.0 * depth_mm * wheel_radius_m * 1e3).sqrt()
+    }
+
     /// Wheel-centre drop along the flat, paper Eq. 9:
     /// `z_tr(s) = d/2·(1 − cos(2πs/L)) − c/4·(1 − cos(4πs/L))` for `0 ≤ s ≤ L`, else 0.
     pub fn profile(&self, s: f64) -> f64 {
@@ -192,5 +200,14 @@ mod tests {
     fn fresh_flat_length() {
         let f = Flat::from_mm(60.0, 0.5, 0.1, 12.4).unwrap();
         assert!((f.fresh_length_m(0.4) - (8.0f64 * 0.5e-3 * 0.4).sqrt()).abs() < 1e-15);
+    }
+
+    #[test]
+    fn fresh_flat_length_from_a_depth_in_mm_agrees_with_the_flat_s() {
+        // d = 0.5 mm, R_w = 0.4 m: L0 = sqrt(8 · 0.5 · 400) mm = 40 mm.
+        assert!((Flat::fresh_length_mm(0.5, 0.4) - 40.0).abs() < 1e-12);
+        let f = Flat::from_mm(60.0, 0.37, 0.1, 12.4).unwrap();
+        let from_flat = f.fresh_length_m(0.43) * 1e3;
+        assert!((Flat::fresh_length_mm(0.37, 0.43) - from_flat).abs() < 1e-12);
     }
 }

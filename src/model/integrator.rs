@@ -14,17 +14,20 @@
 //! [`solve_contact_pair`]. The effective matrices are factored once per time-step size.
 //!
 //! Two step sizes are used: a coarse one where the wheels roll on round tread, a fine one
-//! from shortly before each flat strike until well after the landing impact (the zones are
-//! settings of the calibration, chosen by the convergence study in the README).
+//! from shortly before each flat strike until well after the landing impact ([`super::schedule`]).
+//! The effects of the calibration enter through their terms in [`super::effect`].
 //!
 //! The stepper fills caller-provided buffers and allocates nothing per step; parallelism
 //! over instances lives one level up.
 
 use super::banded::{BandError, BandRows, BandedLdl};
 use super::calibration::CheckedCalibration;
-use super::calibration::Effect;
 use super::contact::{hertz_compression, solve_contact_pair};
+use super::effect;
 use super::flat::Flat;
+pub use super::response::{Record, Response};
+pub use super::schedule::Level;
+use super::schedule::{dip_zones, strike_zones, Schedule};
 use super::track::{Support, TrackModel};
 use super::vehicle::{mul4, wheel, VehicleModel, BOUNCE};
 use thiserror::Error;
@@ -64,15 +67,6 @@ struct StepLevel {
     veh_inv: [[f64; 4]; 4],
 }
 
-/// Which step size to take.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Level {
-    /// The coarse step (round wheel rolling).
-    Coarse,
-    /// The fine step (flat strike and impact).
-    Fine,
-}
-
 /// Full dynamic state of track and vehicle at one instant.
 #[derive(Debug, Clone, PartialEq)]
 pub struct State {
@@ -101,94 +95,6 @@ pub struct Workspace {
     ut_padded: Vec<f64>,
     vt: Vec<f64>,
     r: Vec<f64>,
-}
-
-/// What to record besides the pad forces.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Record {
-    /// Also record the two wheel–rail contact forces at the output rate.
-    pub contact: bool,
-}
-
-/// The drop of wheel `w`'s centre at position `x` due to effect `e` (m, downwards positive):
-/// rail dips and periodic irregularities under both wheels, out-of-roundness on its wheel.
-#[inline]
-fn irregularity(e: &Effect, w: usize, x: f64, wheel_radius: f64) -> f64 {
-    use std::f64::consts::TAU;
-    match e {
-        Effect::RailDip {
-            position_m,
-            length_m,
-            depth_mm,
-        } => {
-            let s = x - position_m;
-            if s.abs() <= length_m / 2.0 {
-                depth_mm * 1e-3 / 2.0 * (1.0 + (TAU * s / length_m).cos())
-            } else {
-                0.0
-            }
-        }
-        Effect::RailIrregularity {
-            wavelength_m,
-            amplitude_mm,
-            phase_deg,
-        } => amplitude_mm * 1e-3 * (TAU * x / wavelength_m + phase_deg.to_radians()).sin(),
-        Effect::WheelOutOfRound {
-            wheel,
-            order,
-            amplitude_mm,
-            phase_deg,
-        } if wheel.index() == w => {
-            -amplitude_mm
-                * 1e-3
-                * (f64::from(*order) * x / wheel_radius + phase_deg.to_radians()).cos()
-        }
-        _ => 0.0,
-    }
-}
-
-/// Output of one run: pad forces at the output rate over the span of all sensor windows.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Response {
-    /// Output sample rate (Hz).
-    pub sample_rate_hz: f64,
-    /// Global index of the first stored sample (`t = k / rate`).
-    pub first_sample: usize,
-    /// Pad force per sensor (calibration order), N, compression positive.
-    pub pad_force_n: Vec<Vec<f64>>,
-    /// Contact forces `[leading, trailing]` at the output rate, when recorded (N).
-    pub contact_force_n: Option<[Vec<f64>; 2]>,
-    /// Largest contact force of each wheel over all integration steps (N).
-    pub peak_contact_force_n: [f64; 2],
-    /// Total time each wheel spent out of contact (s).
-    pub contact_loss_s: [f64; 2],
-    /// Times at which the flat starts to strike (s).
-    pub strike_times_s: Vec<f64>,
-    /// Integration steps taken `[coarse, fine]`.
-    pub steps: [usize; 2],
-}
-
-impl Response {
-    /// Number of stored samples.
-    pub fn len(&self) -> usize {
-        self.pad_force_n.first().map_or(0, Vec::len)
-    }
-
-    /// True when no samples are stored.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    /// Time of stored sample `j` (s).
-    pub fn time_s(&self, j: usize) -> f64 {
-        (self.first_sample + j) as f64 / self.sample_rate_hz
-    }
-
-    /// The window of sensor `i` (its own time axis starts at global sample `start`).
-    pub fn window(&self, i: usize, start: usize, len: usize) -> &[f64] {
-        let off = start - self.first_sample;
-        &self.pad_force_n[i][off..off + len]
-    }
 }
 
 /// A ready-to-run simulator for one calibration: matrices assembled and factored once,
@@ -247,15 +153,7 @@ impl Simulator {
             .sensors
             .pad
             .iter()
-            .map(|p| {
-                cal.effects
-                    .iter()
-                    .filter_map(|e| match e {
-                        Effect::SensorGain { sensor, factor } if *sensor == p.name => Some(*factor),
-                        _ => None,
-                    })
-                    .product()
-            })
+            .map(|p| effect::sensor_gain(&cal.effects, &p.name))
             .collect();
         let lead = cal.run.leading_wheel_start_m;
         let first_sample = (0..cal.sensors.pad.len())
@@ -263,21 +161,11 @@ impl Simulator {
             .min()
             .unwrap_or(0);
         // Speed and output delay of the clock effects.
-        let nominal = cal.speed_m_per_s();
-        let mut speed = nominal;
-        let mut output_delay_s = 0.0;
-        for e in &cal.effects {
-            match e {
-                Effect::TimeOffset { offset_ms } => output_delay_s += offset_ms * 1e-3,
-                Effect::SpeedDeviation { fraction } => {
-                    let actual = nominal * (1.0 + fraction);
-                    output_delay_s +=
-                        (cal.sensors.laser_trigger_m - lead) * (1.0 / nominal - 1.0 / actual);
-                    speed = actual;
-                }
-                _ => {}
-            }
-        }
+        let (speed, output_delay_s) = effect::clock(
+            &cal.effects,
+            cal.speed_m_per_s(),
+            cal.sensors.laser_trigger_m - lead,
+        );
         Ok(Simulator {
             c_h: cal.hertz_constant(),
             speed,
@@ -362,22 +250,11 @@ impl Simulator {
     #[inline]
     fn body_bounce_n(&self, t: f64) -> f64 {
         let v = &self.cal.vehicle;
+        let weight_n = v.car_body_mass_kg * v.gravity_m_per_s2;
         self.cal
             .effects
             .iter()
-            .map(|e| match e {
-                Effect::CarBodyBounce {
-                    amplitude,
-                    frequency_hz,
-                    phase_deg,
-                } => {
-                    v.car_body_mass_kg
-                        * v.gravity_m_per_s2
-                        * amplitude
-                        * (std::f64::consts::TAU * frequency_hz * t + phase_deg.to_radians()).sin()
-                }
-                _ => 0.0,
-            })
+            .map(|e| e.body_load_n(weight_n, t))
             .sum()
     }
 
@@ -397,7 +274,7 @@ impl Simulator {
         }
         for e in &self.cal.effects {
             for (w, zw) in z.iter_mut().enumerate() {
-                *zw += irregularity(e, w, x[w], self.wheel_radius);
+                *zw += e.wheel_drop_m(w, x[w], self.wheel_radius);
             }
         }
         z
@@ -653,54 +530,27 @@ impl Simulator {
         })
     }
 
-    /// Time windows (s) in which fine steps are taken around the rail dips of the effects:
-    /// from each wheel's arrival at a dip to its leaving it, widened like a strike's (none for
-    /// a dip of no depth).
-    fn dip_zones(&self) -> Vec<(f64, f64)> {
-        let integ = &self.cal.integration;
-        let mut zones = Vec::new();
-        for e in &self.cal.effects {
-            if let Effect::RailDip {
-                position_m,
-                length_m,
-                depth_mm,
-            } = e
-            {
-                // A dip of no depth changes nothing and needs no fine steps.
-                if depth_mm.abs() == 0.0 {
-                    continue;
-                }
-                for x0 in self.wheel_start {
-                    let t_in = (position_m - length_m / 2.0 - x0) / self.speed;
-                    let t_out = (position_m + length_m / 2.0 - x0) / self.speed;
-                    zones.push((
-                        t_in - integ.fine_before_strike_s,
-                        t_out + integ.fine_after_strike_s,
-                    ));
-                }
-            }
-        }
-        zones
-    }
-
-    /// Time windows (s) in which fine steps are taken: around every strike of the flat.
-    fn fine_zones(&self, flat: &Flat, t_end: f64) -> (Vec<f64>, Vec<(f64, f64)>) {
-        let w = self.flat_wheel(flat);
-        let x0 = self.wheel_start[w];
-        let x1 = x0 + self.speed * t_end;
-        let strikes = flat.strikes_between(x0, x1, self.wheel_radius);
-        let integ = &self.cal.integration;
-        let times: Vec<f64> = strikes.iter().map(|xs| (xs - x0) / self.speed).collect();
-        let zones = times
-            .iter()
-            .map(|t| {
-                (
-                    t - integ.fine_before_strike_s,
-                    t + flat.length_m() / self.speed + integ.fine_after_strike_s,
-                )
-            })
-            .collect();
-        (times, zones)
+    /// The step schedule of a run of `flat` (or a good wheel) up to `t_end_s`: fine zones
+    /// around every strike of the flat and every wheel's passage over a rail dip.
+    pub fn schedule(&self, flat: Option<&Flat>, t_end_s: f64) -> Schedule {
+        let mut schedule = match flat {
+            Some(f) => strike_zones(
+                f,
+                self.wheel_start[self.flat_wheel(f)],
+                self.speed,
+                self.wheel_radius,
+                t_end_s,
+                &self.cal.integration,
+            ),
+            None => Schedule::default(),
+        };
+        schedule.fine_zones_s.extend(dip_zones(
+            &self.cal.effects,
+            self.wheel_start,
+            self.speed,
+            &self.cal.integration,
+        ));
+        schedule
     }
 
     /// Simulates one instance (a flat, or a good wheel with `None`) from static equilibrium at
@@ -742,11 +592,7 @@ impl Simulator {
         );
         let samples = rec_end - rec_first;
         let t_end = rec_end as f64 / rate;
-        let (strike_times_s, mut zones) = match flat {
-            Some(f) => self.fine_zones(f, t_end),
-            None => (Vec::new(), Vec::new()),
-        };
-        zones.extend(self.dip_zones());
+        let schedule = self.schedule(flat, t_end);
 
         let mut resp = Response {
             sample_rate_hz: rate,
@@ -757,7 +603,7 @@ impl Simulator {
                 .then(|| [Vec::with_capacity(samples), Vec::with_capacity(samples)]),
             peak_contact_force_n: [0.0; 2],
             contact_loss_s: [0.0; 2],
-            strike_times_s,
+            strike_times_s: schedule.strike_times_s.clone(),
             steps: [0, 0],
         };
         let mut state = self.initial_state(flat)?;
@@ -791,8 +637,7 @@ impl Simulator {
         let dt_f = self.fine.dt;
         for j in 0..total_coarse {
             let (t0, t1) = (j as f64 * dt_c, (j + 1) as f64 * dt_c);
-            let fine = zones.iter().any(|&(a, b)| a < t1 && b > t0);
-            if fine {
+            if schedule.level(t0, t1) == Level::Fine {
                 for m in 0..nf {
                     let t = ((j * nf + m + 1) as f64) * dt_f;
                     let x = self.wheel_positions(t);
@@ -816,30 +661,8 @@ impl Simulator {
             }
         }
         if margin > 0 {
-            self.delay_output(&mut resp);
+            resp.delay_onto(self.first_sample..self.end_sample, self.output_delay_s);
         }
         Ok(resp)
-    }
-
-    /// Resamples a response recorded with margins onto the sensor windows, delayed by the
-    /// output delay τ: sample k reads the recorded series at `k/rate − τ` (linear
-    /// interpolation; before the first recorded sample, the first value).
-    fn delay_output(&self, resp: &mut Response) {
-        let rate = resp.sample_rate_hz;
-        let shift = |series: &[f64]| -> Vec<f64> {
-            (self.first_sample..self.end_sample)
-                .map(|k| {
-                    let pos = k as f64 - self.output_delay_s * rate - resp.first_sample as f64;
-                    let i = pos.floor().clamp(0.0, (series.len() - 2) as f64) as usize;
-                    let f = (pos - i as f64).clamp(0.0, 1.0);
-                    series[i] * (1.0 - f) + series[i + 1] * f
-                })
-                .collect()
-        };
-        resp.pad_force_n = resp.pad_force_n.iter().map(|s| shift(s)).collect();
-        if let Some(c) = resp.contact_force_n.as_mut() {
-            *c = [shift(&c[0]), shift(&c[1])];
-        }
-        resp.first_sample = self.first_sample;
     }
 }

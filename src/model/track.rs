@@ -1,5 +1,5 @@
 //! The track: a Timoshenko–Rayleigh rail on discrete Kelvin pads, sleeper masses and
-//! Kelvin ballast (MODEL.md §2, paper §4.2, Fig. 9), assembled as banded matrices.
+//! Kelvin ballast (docs/model.md §2, paper §4.2, Fig. 9), assembled as banded matrices.
 //!
 //! Degrees of freedom, in band order along the rail: for every interior rail node its
 //! deflection `w` and cross-section rotation `ψ`, followed by the sleeper's vertical
@@ -7,7 +7,8 @@
 //! (`w = ψ = 0`) and carry no DOFs. Displacements are positive downwards.
 
 use super::banded::BandedSym;
-use super::calibration::{CheckedCalibration, Effect};
+use super::calibration::CheckedCalibration;
+use super::effect;
 
 /// 4-point Gauss–Legendre rule on [0, 1]; exact for the degree-6 products below.
 const GAUSS4: [(f64, f64); 4] = [
@@ -90,7 +91,7 @@ impl TimoshenkoElement {
     /// interpolation cannot represent (the element's "bubble"). Added in series with the Hertz
     /// spring it makes the rail deflection under a wheel exact for static loads anywhere in an
     /// element, which removes the spurious force ripple at the element-crossing frequency
-    /// `v / l_e` (MODEL.md §9). Computed by splitting the element at the load into two exact
+    /// `v / l_e` (docs/model.md §9). Computed by splitting the element at the load into two exact
     /// segments and condensing the free node: `G = (S⁻¹)₀₀` with
     /// `S = K_a[(w2,ψ2),(w2,ψ2)] + K_b[(w1,ψ1),(w1,ψ1)]`.
     #[inline]
@@ -288,32 +289,12 @@ impl TrackModel {
             let (Some(s), Some(w)) = (*s, node_w[(idx + 1) * elements_per_bay]) else {
                 continue;
             };
-            // Effects that change one sleeper's pad or ballast stiffness.
-            let factor = |pick: fn(&Effect) -> Option<(usize, f64)>| {
-                cal.effects
-                    .iter()
-                    .filter_map(pick)
-                    .filter(|&(k, _)| k == idx + 1)
-                    .map(|(_, f)| f)
-                    .product::<f64>()
-            };
-            let kp = t.pad_stiffness_n_per_m
-                * factor(|e| match e {
-                    Effect::PadStiffness { sleeper, factor } => Some((*sleeper, *factor)),
-                    _ => None,
-                });
+            // Effects that change one sleeper's pad or ballast stiffness, or void it.
+            let kp = t.pad_stiffness_n_per_m * effect::pad_stiffness_factor(&cal.effects, idx + 1);
             let kb = t.ballast_stiffness_n_per_m
-                * factor(|e| match e {
-                    Effect::BallastStiffness { sleeper, factor } => Some((*sleeper, *factor)),
-                    _ => None,
-                });
+                * effect::ballast_stiffness_factor(&cal.effects, idx + 1);
             pad_stiffness_at[w] = kp;
-            let gap = cal.effects.iter().find_map(|e| match e {
-                Effect::VoidedSleeper { sleeper, gap_mm } if *sleeper == idx + 1 => {
-                    Some(gap_mm * 1e-3)
-                }
-                _ => None,
-            });
+            let gap = effect::void_gap_m(&cal.effects, idx + 1);
             // Pad (Kelvin) between rail and sleeper, ballast (Kelvin) between sleeper and
             // ground; a voided sleeper's ballast is unilateral and stays out of the matrices.
             let (kb_lin, cb_lin) = match gap {
@@ -437,7 +418,7 @@ impl TrackModel {
         }
     }
 
-    /// Rail-pad force at sleeper `k`, MODEL.md §6:
+    /// Rail-pad force at sleeper `k`, docs/model.md §6:
     /// `F_pad = K_p·(w_rail − z_s) + C_p·(ẇ_rail − ż_s)`, compression positive.
     #[inline]
     pub fn pad_force(&self, dofs: (usize, usize), u: &[f64], v: &[f64]) -> f64 {

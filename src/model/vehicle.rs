@@ -1,4 +1,4 @@
-//! Pitch-plane half bogie (MODEL.md §3, paper §4.2): bogie bounce `z_b`, bogie pitch `φ`,
+//! Pitch-plane half bogie (docs/model.md §3, paper §4.2): bogie bounce `z_b`, bogie pitch `φ`,
 //! leading wheel `z_w1`, trailing wheel `z_w2` (all positive downwards), primary
 //! suspension `K_1, C_1` per wheel, and the quarter car body as the constant load `M_c·g`.
 

@@ -1,7 +1,9 @@
 //! The audit figure: per sensor, an instance's stored series, its re-simulation and the
 //! measurement, with the comparison points and the admissible band of predictions at each.
 
-use super::plot::{render_png, PlotError, FONT};
+use super::canvas::{
+    min_max, msg, render_png, PlotError, FONT, GRID_LIGHT, TAB_BLUE, TAB_GREEN, TAB_ORANGE, TAB_RED,
+};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -37,11 +39,11 @@ pub struct AuditPanel<'a> {
     pub points: Vec<BandPoint>,
 }
 
-const STORED: RGBColor = RGBColor(31, 119, 180);
-const RESIM: RGBColor = RGBColor(255, 127, 14);
+const STORED: RGBColor = TAB_BLUE;
+const RESIM: RGBColor = TAB_ORANGE;
 const MEASURED: RGBColor = RGBColor(40, 40, 40);
-const KEPT: RGBColor = RGBColor(44, 160, 44);
-const FALSIFIES: RGBColor = RGBColor(214, 39, 40);
+const KEPT: RGBColor = TAB_GREEN;
+const FALSIFIES: RGBColor = TAB_RED;
 
 /// Draws the figure as a PNG at `path` (written beside it, then renamed into place).
 pub fn draw_audit(title: &str, panels: &[AuditPanel], path: &Path) -> Result<(), PlotError> {
@@ -53,7 +55,7 @@ pub fn draw_audit(title: &str, panels: &[AuditPanel], path: &Path) -> Result<(),
     }
     let height = 120 + 380 * panels.len() as u32;
     render_png(path, (1400, height), |root| {
-        let root = root.titled(title, (FONT, 28)).map_err(|e| e.to_string())?;
+        let root = root.titled(title, (FONT, 28)).map_err(msg)?;
         for (panel, area) in panels.iter().zip(root.split_evenly((panels.len(), 1))) {
             draw_panel(&area, panel)?;
         }
@@ -65,7 +67,6 @@ fn draw_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
     p: &AuditPanel,
 ) -> Result<(), String> {
-    let msg = |e: &dyn std::fmt::Display| e.to_string();
     let t = |k: usize| p.t0_s + k as f64 / p.rate_hz;
     let n = p.stored.len().max(1);
     let values = p
@@ -74,10 +75,8 @@ fn draw_panel<DB: DrawingBackend>(
         .chain(p.resimulated)
         .map(|&v| v as f64)
         .chain(p.measured.into_iter().flatten().copied())
-        .chain(p.points.iter().flat_map(|b| b.band_kn))
-        .filter(|v| v.is_finite());
-    let (lo, hi) = values.fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
-    let (lo, hi) = if lo <= hi { (lo, hi) } else { (0.0, 1.0) };
+        .chain(p.points.iter().flat_map(|b| b.band_kn));
+    let (lo, hi) = min_max(values).unwrap_or((0.0, 1.0));
     let pad = 0.05 * (hi - lo).max(1.0);
     let mut chart = ChartBuilder::on(area)
         .caption(p.sensor, (FONT, 22))
@@ -85,16 +84,16 @@ fn draw_panel<DB: DrawingBackend>(
         .x_label_area_size(45)
         .y_label_area_size(70)
         .build_cartesian_2d(t(0)..t(n - 1), (lo - pad)..(hi + pad))
-        .map_err(|e| msg(&e))?;
+        .map_err(msg)?;
     chart
         .configure_mesh()
         .x_desc("bank time (s)")
         .y_desc("pad force (kN)")
         .label_style((FONT, 16))
         .axis_desc_style((FONT, 18))
-        .light_line_style(RGBColor(235, 235, 235))
+        .light_line_style(GRID_LIGHT)
         .draw()
-        .map_err(|e| msg(&e))?;
+        .map_err(msg)?;
     let line = |v: &[f32]| -> Vec<(f64, f64)> {
         v.iter()
             .enumerate()
@@ -107,7 +106,7 @@ fn draw_panel<DB: DrawingBackend>(
             line(p.stored),
             STORED.stroke_width(3),
         )))
-        .map_err(|e| msg(&e))?
+        .map_err(msg)?
         .label("stored in the bank")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], STORED.stroke_width(3)));
     chart
@@ -115,7 +114,7 @@ fn draw_panel<DB: DrawingBackend>(
             line(p.resimulated),
             RESIM.stroke_width(1),
         )))
-        .map_err(|e| msg(&e))?
+        .map_err(msg)?
         .label("re-simulated")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RESIM.stroke_width(1)));
     if let Some(m) = p.measured {
@@ -128,7 +127,7 @@ fn draw_panel<DB: DrawingBackend>(
                     .collect::<Vec<_>>(),
                 MEASURED.stroke_width(1),
             )))
-            .map_err(|e| msg(&e))?
+            .map_err(msg)?
             .label("measured")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], MEASURED.stroke_width(1)));
     }
@@ -145,19 +144,19 @@ fn draw_panel<DB: DrawingBackend>(
                     colour.stroke_width(1),
                 ),
             ])
-            .map_err(|e| msg(&e))?;
+            .map_err(msg)?;
         chart
             .draw_series(std::iter::once(Circle::new(
                 (b.time_s, b.predicted_kn),
                 5,
                 colour.filled(),
             )))
-            .map_err(|e| msg(&e))?;
+            .map_err(msg)?;
     }
     if !p.points.is_empty() {
         chart
             .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
-            .map_err(|e| msg(&e))?
+            .map_err(msg)?
             .label("comparison point: admissible band, prediction (red: falsifies)")
             .legend(|(x, y)| Circle::new((x + 10, y), 5, KEPT.filled()));
     }
@@ -168,5 +167,5 @@ fn draw_panel<DB: DrawingBackend>(
         .border_style(BLACK)
         .position(SeriesLabelPosition::UpperRight)
         .draw()
-        .map_err(|e| msg(&e))
+        .map_err(msg)
 }

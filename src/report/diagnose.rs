@@ -2,7 +2,9 @@
 //! before (and after the effect is added), and `diagnosis.html` with the verdict, the ranking
 //! of the effects and the numbers before and after.
 
-use super::plot::{render_png, PlotError, FONT};
+use super::canvas::{
+    escape_html as esc, min_max, msg, render_png, PlotError, FONT, GRID_LIGHT, TAB_BLUE, TAB_RED,
+};
 use crate::diagnose::{Diagnosis, Located, SensorGap, Stage};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -38,9 +40,9 @@ pub enum DiagnosisReportError {
     Plot(#[from] PlotError),
 }
 
-const RESIDUAL: RGBColor = RGBColor(31, 119, 180);
+const RESIDUAL: RGBColor = TAB_BLUE;
 const BAND: RGBColor = RGBColor(200, 200, 200);
-const OUTSIDE: RGBColor = RGBColor(214, 39, 40);
+const OUTSIDE: RGBColor = TAB_RED;
 
 /// Draws one panel: a sensor's residual against its thresholds.
 fn draw_gap_panel(
@@ -50,17 +52,15 @@ fn draw_gap_panel(
     t0: f64,
     rate: f64,
 ) -> Result<(), String> {
-    let msg = |e: &dyn std::fmt::Display| e.to_string();
     let n = g.residual_kn.len().max(2);
     let t = |k: usize| t0 + k as f64 / rate;
-    let (lo, hi) = g
-        .residual_kn
-        .iter()
-        .copied()
-        .chain(g.thresholds_kn.iter().flatten().copied())
-        .filter(|v| v.is_finite())
-        .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
-    let (lo, hi) = if lo <= hi { (lo, hi) } else { (-1.0, 1.0) };
+    let (lo, hi) = min_max(
+        g.residual_kn
+            .iter()
+            .copied()
+            .chain(g.thresholds_kn.iter().flatten().copied()),
+    )
+    .unwrap_or((-1.0, 1.0));
     let pad = 0.05 * (hi - lo).max(1.0);
     let mut chart = ChartBuilder::on(area)
         .caption(title, (FONT, 20))
@@ -68,16 +68,16 @@ fn draw_gap_panel(
         .x_label_area_size(40)
         .y_label_area_size(65)
         .build_cartesian_2d(t(0)..t(n - 1), (lo - pad)..(hi + pad))
-        .map_err(|e| msg(&e))?;
+        .map_err(msg)?;
     chart
         .configure_mesh()
         .x_desc("bank time (s)")
         .y_desc("prediction − measured (kN)")
         .label_style((FONT, 14))
         .axis_desc_style((FONT, 15))
-        .light_line_style(RGBColor(235, 235, 235))
+        .light_line_style(GRID_LIGHT)
         .draw()
-        .map_err(|e| msg(&e))?;
+        .map_err(msg)?;
     let upper: Vec<(f64, f64)> = (0..g.thresholds_kn.len())
         .map(|k| (t(k), g.thresholds_kn[k][1]))
         .collect();
@@ -90,7 +90,7 @@ fn draw_gap_panel(
             upper.into_iter().chain(lower).collect::<Vec<_>>(),
             BAND.mix(0.6).filled(),
         )))
-        .map_err(|e| msg(&e))?
+        .map_err(msg)?
         .label("thresholds (Šídák over all samples, widened by the cell)")
         .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], BAND.filled()));
     chart
@@ -100,7 +100,7 @@ fn draw_gap_panel(
                 .collect::<Vec<_>>(),
             RESIDUAL.stroke_width(1),
         )))
-        .map_err(|e| msg(&e))?
+        .map_err(msg)?
         .label("residual of the best instance")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RESIDUAL.stroke_width(2)));
     chart
@@ -112,7 +112,7 @@ fn draw_gap_panel(
                 })
                 .map(|k| Circle::new((t(k), g.residual_kn[k]), 2, OUTSIDE.filled())),
         )
-        .map_err(|e| msg(&e))?
+        .map_err(msg)?
         .label("outside")
         .legend(|(x, y)| Circle::new((x + 10, y), 3, OUTSIDE.filled()));
     chart
@@ -122,7 +122,7 @@ fn draw_gap_panel(
         .border_style(BLACK)
         .position(SeriesLabelPosition::UpperRight)
         .draw()
-        .map_err(|e| msg(&e))
+        .map_err(msg)
 }
 
 /// Draws the residual-against-thresholds figure: a row per sensor, the column before and,
@@ -137,7 +137,7 @@ pub fn draw_gap(
     let rows = before.sensors.len().max(1);
     let cols = if after.is_some() { 2 } else { 1 };
     render_png(path, (800 * cols as u32, 80 + 300 * rows as u32), |root| {
-        let root = root.titled(title, (FONT, 26)).map_err(|e| e.to_string())?;
+        let root = root.titled(title, (FONT, 26)).map_err(msg)?;
         let areas = root.split_evenly((rows, cols));
         for (r, s) in before.sensors.iter().enumerate() {
             let (t0, rate) = series_time
@@ -203,12 +203,6 @@ fn stage_rows(before: &Stage, after: Option<&Stage>) -> String {
         format!("{}, {:.1}", x.best_instance, x.best_l0_mm)
     });
     s
-}
-
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
 }
 
 /// The HTML page.

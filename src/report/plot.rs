@@ -6,89 +6,28 @@
 //! figure is drawn to a hidden temporary file next to the target and renamed into place,
 //! so a reader never sees a half-written plot.
 
-use std::fs;
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::OnceLock;
+use std::path::Path;
 
 use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
-use plotters::style::{register_font, FontStyle};
 
-/// The embedded font, registered as the `sans-serif` family (there is no system font lookup).
-static FONT_BYTES: &[u8] = include_bytes!(concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/assets/DejaVuSans.ttf"
-));
-
-/// Font family used for every text in the plots.
-pub(crate) const FONT: &str = "sans-serif";
+/// The figure error, at its old path.
+pub use super::canvas::PlotError;
+/// The shared figure helpers, also at their old path (`report::plot`).
+pub(crate) use super::canvas::{ensure_font, render_png, FONT};
+use super::canvas::{
+    finite_runs, legend_font, min_max, msg, text_width, GRID_BOLD, GRID_LIGHT, TAB10,
+};
 
 /// Figure size without the contact panel (pixels, also the SVG view box).
 const SIZE_SINGLE: (u32, u32) = (1400, 800);
 /// Figure size with the contact-force panel below.
 const SIZE_WITH_CONTACT: (u32, u32) = (1400, 1100);
 
-/// Distinct line colours (the matplotlib "tab10" palette).
-const PALETTE: [RGBColor; 10] = [
-    RGBColor(31, 119, 180),
-    RGBColor(255, 127, 14),
-    RGBColor(44, 160, 44),
-    RGBColor(214, 39, 40),
-    RGBColor(148, 103, 189),
-    RGBColor(140, 86, 75),
-    RGBColor(227, 119, 194),
-    RGBColor(127, 127, 127),
-    RGBColor(188, 189, 34),
-    RGBColor(23, 190, 207),
-];
-
 /// Colour of the dashed flat-strike markers.
 const STRIKE_COLOUR: RGBColor = RGBColor(60, 60, 60);
-
-/// Errors from drawing a plot. Every variant names the file that was to be written.
-#[derive(Debug, thiserror::Error)]
-pub enum PlotError {
-    /// The path does not end in `.png` or `.svg`.
-    #[error("{}: unsupported plot format (the file name must end in .png or .svg)", path.display())]
-    UnsupportedExtension {
-        /// The requested output path.
-        path: PathBuf,
-    },
-    /// The data cannot be plotted (empty or non-finite time axis, mismatched lengths).
-    #[error("{}: cannot plot the data: {message}", path.display())]
-    InvalidData {
-        /// The requested output path.
-        path: PathBuf,
-        /// What is wrong with the data.
-        message: String,
-    },
-    /// The embedded font could not be registered with the plotting library.
-    #[error("{}: the embedded font assets/DejaVuSans.ttf could not be loaded", path.display())]
-    Font {
-        /// The requested output path.
-        path: PathBuf,
-    },
-    /// The plotting library failed while drawing or encoding the figure.
-    #[error("{}: drawing the plot failed: {message}", path.display())]
-    Draw {
-        /// The requested output path.
-        path: PathBuf,
-        /// The plotting library's error message.
-        message: String,
-    },
-    /// Writing or renaming the output file failed.
-    #[error("{}: {source}", path.display())]
-    Io {
-        /// The file being written (the target, or its temporary sibling).
-        path: PathBuf,
-        /// The underlying I/O error.
-        #[source]
-        source: std::io::Error,
-    },
-}
 
 /// One force signal to plot, e.g. one rail-pad sensor.
 #[derive(Debug, Clone, Copy)]
@@ -132,13 +71,6 @@ impl Format {
             "png" => Some(Self::Png),
             "svg" => Some(Self::Svg),
             _ => None,
-        }
-    }
-
-    fn extension(self) -> &'static str {
-        match self {
-            Self::Png => "png",
-            Self::Svg => "svg",
         }
     }
 }
@@ -192,35 +124,25 @@ pub fn draw_pad_forces(plot: &PadForcePlot, path: &Path) -> Result<(), PlotError
     } else {
         SIZE_SINGLE
     };
-    let tmp = temp_path(path, format)?;
-    let result = match format {
-        Format::Png => draw_png(plot, &tmp, size),
-        Format::Svg => draw_svg(plot, &tmp, size),
+    match format {
+        Format::Png => render_png(path, size, |root| render(root, plot)),
+        Format::Svg => {
+            let mut svg = String::new();
+            {
+                let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+                render(&root, plot)
+                    .and_then(|()| root.present().map_err(msg))
+                    .map_err(|message| PlotError::Draw {
+                        path: path.to_path_buf(),
+                        message,
+                    })?;
+            }
+            crate::atomic::write_atomically(path, svg.as_bytes()).map_err(|source| PlotError::Io {
+                path: path.to_path_buf(),
+                source,
+            })
+        }
     }
-    .and_then(|()| {
-        fs::rename(&tmp, path).map_err(|source| PlotError::Io {
-            path: path.to_path_buf(),
-            source,
-        })
-    });
-    if result.is_err() {
-        // Best effort: the temporary may not exist if drawing failed before saving.
-        let _ = fs::remove_file(&tmp);
-    }
-    result.map_err(|e| match e {
-        // Report drawing failures against the requested path, not the temporary.
-        PlotError::Draw { message, .. } => PlotError::Draw {
-            path: path.to_path_buf(),
-            message,
-        },
-        other => other,
-    })
-}
-
-/// Registers the embedded font once; returns whether it is available.
-pub(crate) fn ensure_font() -> bool {
-    static REGISTERED: OnceLock<bool> = OnceLock::new();
-    *REGISTERED.get_or_init(|| register_font(FONT, FontStyle::Normal, FONT_BYTES).is_ok())
 }
 
 /// Checks lengths and the time axis; the message says what is wrong.
@@ -252,54 +174,6 @@ fn validate(plot: &PadForcePlot) -> Result<(), String> {
         }
     }
     Ok(())
-}
-
-/// A hidden temporary sibling of `path` that keeps the extension (the PNG encoder picks
-/// the format from it), unique within this process.
-fn temp_path(path: &Path, format: Format) -> Result<PathBuf, PlotError> {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let name = path
-        .file_name()
-        .ok_or_else(|| PlotError::UnsupportedExtension {
-            path: path.to_path_buf(),
-        })?
-        .to_string_lossy();
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let tmp_name = format!(
-        ".{name}.tmp-{}-{n}.{}",
-        std::process::id(),
-        format.extension()
-    );
-    Ok(path.parent().unwrap_or(Path::new("")).join(tmp_name))
-}
-
-/// Draws into a PNG file at `tmp`.
-fn draw_png(plot: &PadForcePlot, tmp: &Path, size: (u32, u32)) -> Result<(), PlotError> {
-    let draw_err = |message: String| PlotError::Draw {
-        path: tmp.to_path_buf(),
-        message,
-    };
-    let root = BitMapBackend::new(tmp, size).into_drawing_area();
-    render(&root, plot).map_err(draw_err)?;
-    root.present().map_err(|e| draw_err(e.to_string()))
-}
-
-/// Draws an SVG into memory, then writes it to `tmp`.
-fn draw_svg(plot: &PadForcePlot, tmp: &Path, size: (u32, u32)) -> Result<(), PlotError> {
-    let draw_err = |message: String| PlotError::Draw {
-        path: tmp.to_path_buf(),
-        message,
-    };
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
-        render(&root, plot).map_err(draw_err)?;
-        root.present().map_err(|e| draw_err(e.to_string()))?;
-    }
-    fs::write(tmp, svg).map_err(|source| PlotError::Io {
-        path: tmp.to_path_buf(),
-        source,
-    })
 }
 
 /// Draws the whole figure on `root`.
@@ -335,7 +209,7 @@ fn render<DB: DrawingBackend>(
             .map(|(i, s)| Curve {
                 label: s.label,
                 values: s.values_kn,
-                colour: PALETTE[i % PALETTE.len()],
+                colour: TAB10[i % TAB10.len()],
             })
             .collect(),
     };
@@ -345,12 +219,12 @@ fn render<DB: DrawingBackend>(
             Curve {
                 label: "leading wheel",
                 values: leading,
-                colour: PALETTE[0],
+                colour: TAB10[0],
             },
             Curve {
                 label: "trailing wheel",
                 values: trailing,
-                colour: PALETTE[3],
+                colour: TAB10[3],
             },
         ],
     });
@@ -417,22 +291,6 @@ const LEGEND_ROW: u32 = 28;
 /// Top margin of each panel's chart (the legend box is aligned with it).
 const PANEL_MARGIN_TOP: u32 = 10;
 
-/// Style of the legend labels.
-fn legend_font() -> TextStyle<'static> {
-    TextStyle::from((FONT, 18).into_font()).color(&BLACK)
-}
-
-/// Width in pixels of `text` set in `font`.
-fn text_width<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    text: &str,
-    font: &TextStyle,
-) -> Result<u32, String> {
-    area.estimate_text_size(text, font)
-        .map(|(w, _)| w)
-        .map_err(msg)
-}
-
 /// One legend entry: label, line style, dashed or solid.
 struct LegendEntry<'a> {
     label: &'a str,
@@ -470,8 +328,8 @@ fn draw_panel<DB: DrawingBackend>(
         .y_labels(8)
         .label_style((FONT, 18))
         .axis_desc_style((FONT, 22))
-        .light_line_style(RGBColor(235, 235, 235))
-        .bold_line_style(RGBColor(205, 205, 205))
+        .light_line_style(GRID_LIGHT)
+        .bold_line_style(GRID_BOLD)
         .draw()
         .map_err(msg)?;
 
@@ -480,7 +338,7 @@ fn draw_panel<DB: DrawingBackend>(
         let style = ShapeStyle::from(&curve.colour).stroke_width(2);
         chart
             .draw_series(
-                finite_runs(time, curve.values)
+                finite_runs(time.iter().copied().zip(curve.values.iter().copied()))
                     .into_iter()
                     .map(move |run| PathElement::new(run, style)),
             )
@@ -574,80 +432,11 @@ fn force_range<'a>(curves: impl Iterator<Item = &'a [f64]>) -> (f64, f64) {
     }
 }
 
-/// Smallest and largest finite value, if any.
-fn min_max(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
-    values
-        .filter(|v| v.is_finite())
-        .fold(None, |acc, v| match acc {
-            None => Some((v, v)),
-            Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
-        })
-}
-
-/// The (t, value) points split into runs of finite values, so gaps break the line.
-fn finite_runs(time: &[f64], values: &[f64]) -> Vec<Vec<(f64, f64)>> {
-    let mut runs = Vec::new();
-    let mut run = Vec::new();
-    for (&t, &v) in time.iter().zip(values) {
-        if v.is_finite() {
-            run.push((t, v));
-        } else if !run.is_empty() {
-            runs.push(std::mem::take(&mut run));
-        }
-    }
-    if !run.is_empty() {
-        runs.push(run);
-    }
-    runs
-}
-
-/// Turns a plotters error into its message.
-fn msg(e: impl std::fmt::Display) -> String {
-    e.to_string()
-}
-
-/// Draws a PNG of `size` at `path` with `draw`: to a hidden temporary file beside it, renamed
-/// into place (nothing half-written is left on error). Checks the font first.
-pub(crate) fn render_png(
-    path: &Path,
-    size: (u32, u32),
-    draw: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> Result<(), String>,
-) -> Result<(), PlotError> {
-    if !ensure_font() {
-        return Err(PlotError::Font {
-            path: path.to_path_buf(),
-        });
-    }
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.tmp-{}.png", std::process::id()));
-    let result = (|| -> Result<(), String> {
-        let root = BitMapBackend::new(&tmp, size).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| e.to_string())?;
-        draw(&root)?;
-        root.present().map_err(|e| e.to_string())
-    })();
-    if let Err(message) = result {
-        let _ = fs::remove_file(&tmp);
-        return Err(PlotError::Draw {
-            path: path.to_path_buf(),
-            message,
-        });
-    }
-    fs::rename(&tmp, path).map_err(|source| {
-        let _ = fs::remove_file(&tmp);
-        PlotError::Io {
-            path: path.to_path_buf(),
-            source,
-        }
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::report::dir_entries;
+    use std::fs;
 
     const N: usize = 200;
 
@@ -703,20 +492,6 @@ mod tests {
             strike_times_s: &STRIKES,
             contact_kn: contact.map(|[a, b]| [a.as_slice(), b.as_slice()]),
         }
-    }
-
-    fn dir_entries(dir: &Path) -> Vec<String> {
-        let mut names: Vec<String> = fs::read_dir(dir)
-            .expect("read tempdir")
-            .map(|e| {
-                e.expect("dir entry")
-                    .file_name()
-                    .to_string_lossy()
-                    .into_owned()
-            })
-            .collect();
-        names.sort();
-        names
     }
 
     #[test]
@@ -837,15 +612,5 @@ mod tests {
         assert!((lo + 3.0).abs() < 1e-12);
         let (lo, hi) = force_range(std::iter::empty());
         assert!(hi > lo);
-    }
-
-    #[test]
-    fn gaps_split_the_line() {
-        let t = [0.0, 1.0, 2.0, 3.0, 4.0];
-        let v = [1.0, f64::NAN, 2.0, 3.0, f64::INFINITY];
-        let runs = finite_runs(&t, &v);
-        assert_eq!(runs.len(), 2);
-        assert_eq!(runs[0].len(), 1);
-        assert_eq!(runs[1].len(), 2);
     }
 }

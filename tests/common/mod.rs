@@ -1,33 +1,116 @@
-//! Shared by the integration tests that need a small bank.
+//! Shared by the integration tests: the binary under test, the small calibrations, banks
+//! built once per test binary, and listing the files of a folder.
+//!
+//! Each test binary compiles this module on its own and uses only part of it.
+#![allow(dead_code)]
 
-use std::path::PathBuf;
+use assert_cmd::Command;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use wheelflat::bank::{self, GenerateOptions, Quiet, StorageFormat};
 use wheelflat::model::{Calibration, CheckedCalibration};
 
-/// Builds (or finds up to date) a bank of `instances` for `cal` under the test target's
-/// temporary folder, `shard_size` instances per file; returns its directory. Call it once per
-/// test binary (behind a `OnceLock`): tests run in parallel and must not build side by side.
-pub fn build_bank(
-    cal: &CheckedCalibration,
-    name: &str,
-    instances: usize,
-    shard_size: usize,
-) -> PathBuf {
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
-    let opts = GenerateOptions {
+/// Path of the `wheelflat` binary that Cargo built for these tests (for
+/// `std::process::Command` and for scripts that read it from `$WHEELFLAT`).
+pub fn wheelflat_path() -> PathBuf {
+    PathBuf::from(env!("CARGO_BIN_EXE_wheelflat"))
+}
+
+/// The `wheelflat` binary as an `assert_cmd` command.
+pub fn wheelflat() -> Command {
+    Command::new(wheelflat_path())
+}
+
+/// The default (paper) calibration with `window_samples`-sample windows per sensor: short
+/// windows keep banks small and fast to build.
+pub fn small_calibration(window_samples: usize) -> Calibration {
+    let mut c = Calibration::default();
+    c.output.window_samples = window_samples;
+    c
+}
+
+/// The CI-sized identification calibration ([`Calibration::narrow_profile`]).
+pub fn narrow_calibration() -> CheckedCalibration {
+    Calibration::narrow_profile()
+        .check()
+        .expect("the narrow profile is valid")
+}
+
+/// Writes `cal` as a calibration file `track.toml` in `dir` (the same text as `wheelflat
+/// calibration` prints) and returns its path.
+pub fn write_calibration(cal: &Calibration, dir: &Path) -> PathBuf {
+    let path = dir.join("track.toml");
+    std::fs::write(&path, cal.to_toml_string()).unwrap();
+    path
+}
+
+/// Bank generation options: `instances` from seed 0, `shard_size` instances per file, the
+/// default storage format, on one machine.
+pub fn options(instances: usize, shard_size: usize) -> GenerateOptions {
+    GenerateOptions {
         instances,
         seed: 0,
         shard_size,
         machine_shard: None,
         format: StorageFormat::default(),
         simulate_missing: true,
-    };
-    bank::generate(cal, &dir, &opts, &Quiet).unwrap();
-    dir
+    }
 }
 
-/// The CI-sized identification calibration ([`Calibration::narrow_profile`]).
-#[allow(dead_code)] // not every test binary uses it
-pub fn narrow_calibration() -> CheckedCalibration {
-    Calibration::narrow_profile().check().unwrap()
+/// A bank in the test target's temporary folder and the calibration it was built from.
+pub type CachedBank = (PathBuf, CheckedCalibration);
+
+/// The bank `name` of `instances` for the calibration `cal` gives, `shard_size` instances per
+/// file, under the test target's temporary folder: built (or found up to date from an earlier
+/// run) on the first call in this test binary, then shared. Tests run in parallel and must not
+/// build a bank side by side, so builds hold one lock; `name` must be unique across test
+/// binaries (they may run at the same time) and name one configuration.
+pub fn cached_bank(
+    name: &str,
+    cal: impl FnOnce() -> CheckedCalibration,
+    instances: usize,
+    shard_size: usize,
+) -> &'static CachedBank {
+    static BANKS: Mutex<Vec<(String, usize, usize, &'static CachedBank)>> = Mutex::new(Vec::new());
+    let cal = cal();
+    // A test that panicked while holding the lock left the list as it was: still usable.
+    let mut banks = BANKS.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(&(_, i, s, bank)) = banks.iter().find(|(n, ..)| n == name) {
+        assert!(
+            (i, s) == (instances, shard_size) && bank.1.document() == cal.document(),
+            "bank `{name}` asked for with two configurations"
+        );
+        return bank;
+    }
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+    bank::generate(&cal, &dir, &options(instances, shard_size), &Quiet).unwrap();
+    let bank: &'static CachedBank = Box::leak(Box::new((dir, cal)));
+    banks.push((name.to_string(), instances, shard_size, bank));
+    bank
+}
+
+/// Every file under `dir` (recursively) as (path relative to `dir`, bytes), sorted by path.
+/// Entries whose name starts with one of `skip` are left out, folders with all they hold.
+pub fn files(dir: &Path, skip: &[&str]) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            let name = p.file_name().unwrap().to_string_lossy();
+            if skip.iter().any(|s| name.starts_with(s)) {
+                continue;
+            }
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.push((
+                    p.strip_prefix(dir).unwrap().to_path_buf(),
+                    std::fs::read(&p).unwrap(),
+                ));
+            }
+        }
+    }
+    out.sort();
+    out
 }

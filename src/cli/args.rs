@@ -1,0 +1,481 @@
+//! The command line's grammar: the clap types of every command and the parsers of the
+//! arguments that are more than one value (`--shard I/N`, `--flat-on`, `--effect`).
+//!
+//! The doc comments on the fields and variants are the `--help` text; the types themselves
+//! carry plain comments so that clap does not take them for help text.
+
+use crate::bank::{Codec, ValueEncoding};
+use crate::model::{Effect, Flat, WheelPosition};
+use crate::train::TrainFlat;
+use anyhow::{Context, Result};
+use clap::{Args, Parser, Subcommand};
+use std::path::PathBuf;
+
+/// Wheel-flat identification from rail-pad forces, with uncertainties.
+#[derive(Debug, Parser)]
+#[command(name = "wheelflat", version, about, long_about = None)]
+pub(super) struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+// The commands.
+#[derive(Debug, Subcommand)]
+pub(super) enum Command {
+    /// Print the built-in calibration (docs/model.md defaults) as a TOML file to start from.
+    Calibration {
+        /// Write to this file instead of standard output.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Population profile: `paper` (flat on the trailing wheel, X_p in [12, 13] m) or
+        /// `train` (either wheel, X_p over one wheel revolution; what `train` needs).
+        #[arg(long, value_enum, default_value_t = Profile::Paper)]
+        profile: Profile,
+    },
+    /// Simulate one train pass over the sensors and write the rail-pad forces.
+    Simulate(SimulateArgs),
+    /// Build, inspect and check model banks.
+    Bank {
+        #[command(subcommand)]
+        command: BankCommand,
+    },
+    /// Make a field-like measurement from a chosen true flat (simulated, then perturbed with
+    /// errors drawn inside the uncertainty table), with a truth JSON.
+    Synth(SynthArgs),
+    /// Identify the flat size behind a measurement from a bank: JSON, figures, HTML report.
+    Identify(IdentifyArgs),
+    /// Print the paper-style comparison of the method with its baselines for one measurement.
+    Compare(CompareArgs),
+    /// Identify every wheel of a whole train pass: one recording, the trigger time of every
+    /// wheel; a table (CSV, JSON, HTML) with flat yes/no, L0 range and severity per wheel.
+    Train(TrainArgs),
+    /// Audit one model instance: re-simulate it and compare with the bank; with a measurement,
+    /// show why it is kept or falsified.
+    Audit(AuditArgs),
+    /// Diagnose a model gap: locate where the best instances leave the thresholds, fit every
+    /// effect of the library with the flat and rank them (BIC), name one only when the evidence
+    /// is clear, add it, regenerate a local bank and identify again; report before and after.
+    Diagnose(DiagnoseArgs),
+    /// Run the main job on built-in defaults: simulate, build the bank on first use (with
+    /// progress), make a synthetic field measurement, identify the flat, write the report.
+    Demo {
+        /// Output folder.
+        #[arg(long, default_value = "wheelflat-demo")]
+        out: PathBuf,
+        /// Bank directory (built here on first use; reused while it is up to date).
+        #[arg(long, default_value = "bank")]
+        bank: PathBuf,
+        /// Instances in the bank (the paper's 50,000; fewer for a quick look).
+        #[arg(long, default_value_t = DEFAULT_INSTANCES)]
+        instances: usize,
+    },
+}
+
+/// The built-in population profiles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(super) enum Profile {
+    /// The paper's: trailing wheel, X_p in [12, 13] m.
+    Paper,
+    /// Whole-train monitoring: both wheels, X_p over one revolution.
+    Train,
+    /// CI-sized: narrower flat ranges and 600-sample windows, for small banks (tests, the
+    /// diagnosis suite, trying things out).
+    Narrow,
+}
+
+// The `bank` commands.
+#[derive(Debug, Subcommand)]
+pub(super) enum BankCommand {
+    /// Simulate the whole population and store it as Parquet (resumes an interrupted run;
+    /// does nothing when the bank is up to date).
+    Generate(GenerateArgs),
+    /// Complete a bank built by `--shard` runs: check every shard file, write the manifest,
+    /// switch CURRENT. Simulates nothing.
+    Merge(GenerateArgs),
+    /// Show a bank's metadata, sizes and parameter ranges.
+    Info {
+        /// Bank directory.
+        dir: PathBuf,
+    },
+    /// Check every file of a bank against its manifest (size, SHA-256, footer).
+    Verify {
+        /// Bank directory.
+        dir: PathBuf,
+    },
+    /// Re-simulate K instances spread through the bank and report any that no longer match
+    /// (code or calibration drifted since the bank was built). Fails on drift.
+    Audit {
+        /// Bank directory.
+        dir: PathBuf,
+        /// Instances to re-simulate, spread evenly through the bank.
+        #[arg(long, default_value_t = 32)]
+        sample: usize,
+        /// Re-simulate with this calibration instead of the one stored in the bank (shows
+        /// whether a changed track calibration changes the predictions).
+        #[arg(long)]
+        calibration: Option<PathBuf>,
+    },
+}
+
+/// Instances of a bank unless told otherwise (the paper's population).
+const DEFAULT_INSTANCES: usize = 50_000;
+/// Population seed unless told otherwise (plain Hammersley).
+const DEFAULT_SEED: u64 = 0;
+/// Instances per shard file unless told otherwise.
+const DEFAULT_SHARD_SIZE: usize = 2500;
+
+// `bank generate` and `bank merge`.
+#[derive(Debug, Clone, PartialEq, Args)]
+pub(super) struct GenerateArgs {
+    /// Calibration file (TOML); the built-in defaults when omitted.
+    #[arg(long)]
+    pub calibration: Option<PathBuf>,
+    /// Instances in the population.
+    #[arg(long, default_value_t = DEFAULT_INSTANCES)]
+    pub instances: usize,
+    /// Bank directory.
+    #[arg(long, default_value = "bank")]
+    pub out: PathBuf,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Build only part I of N (0-based), e.g. `--shard 3/10`, for a cluster job array.
+    #[arg(long, value_parser = parse_shard)]
+    pub shard: Option<(usize, usize)>,
+    /// Population seed (0: plain Hammersley).
+    #[arg(long, default_value_t = DEFAULT_SEED)]
+    pub seed: u64,
+    /// Instances per shard file (the unit of resumable work).
+    #[arg(long, default_value_t = DEFAULT_SHARD_SIZE)]
+    pub shard_size: usize,
+    /// Compression of the force columns.
+    #[arg(long, value_enum, default_value_t = Codec::None)]
+    pub compression: Codec,
+    /// Encoding of the force columns.
+    #[arg(long, value_enum, default_value_t = ValueEncoding::Plain)]
+    pub encoding: ValueEncoding,
+}
+
+impl GenerateArgs {
+    /// `bank generate --out OUT --instances N` with every other argument at its default (the
+    /// demo's bank; a test checks this equals what clap parses).
+    pub fn defaults(out: PathBuf, instances: usize) -> GenerateArgs {
+        GenerateArgs {
+            calibration: None,
+            instances,
+            out,
+            threads: None,
+            shard: None,
+            seed: DEFAULT_SEED,
+            shard_size: DEFAULT_SHARD_SIZE,
+            compression: Codec::None,
+            encoding: ValueEncoding::Plain,
+        }
+    }
+}
+
+/// Parses `--shard I/N`.
+fn parse_shard(s: &str) -> std::result::Result<(usize, usize), String> {
+    let (i, n) = s
+        .split_once('/')
+        .ok_or_else(|| format!("`{s}`: expected I/N, e.g. 0/4"))?;
+    let i: usize = i
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}`: I is not a number"))?;
+    let n: usize = n
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}`: N is not a number"))?;
+    if n == 0 || i >= n {
+        return Err(format!("`{s}`: need 0 <= I < N"));
+    }
+    Ok((i, n))
+}
+
+// `synth`.
+#[derive(Debug, Args)]
+pub(super) struct SynthArgs {
+    #[command(flatten)]
+    pub flat: FlatArgs,
+    /// Calibration file (TOML); the built-in defaults when omitted.
+    #[arg(long)]
+    pub calibration: Option<PathBuf>,
+    /// Seed of the perturbation.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Measurement CSV to write.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Truth JSON to write (default: the CSV path with `.truth.json`).
+    #[arg(long)]
+    pub truth: Option<PathBuf>,
+    /// Leave the laser trigger time out (alignment then uses cross-correlation).
+    #[arg(long)]
+    pub no_trigger: bool,
+    /// A whole train instead of one bogie: writes the recording, a trigger file
+    /// (`<out>.triggers.csv`, one time per wheel) and the truth. Without `--flat-on`: flats
+    /// on bogie 2 leading, bogie 7 trailing and bogie 11 leading.
+    #[arg(long)]
+    pub train: bool,
+    /// Bogies in the train.
+    #[arg(long, default_value_t = 12, requires = "train")]
+    pub bogies: usize,
+    /// Hide an effect of the library in the measurement: `KIND:KEY=VALUE,…`, e.g.
+    /// `pad_stiffness:sleeper=16,factor=0.5` or `wheel_out_of_round:wheel=leading,order=8,amplitude_mm=0.05`
+    /// (repeat for more; the keys are those of `[[effects]]` in the calibration).
+    #[arg(long = "effect")]
+    pub effects: Vec<String>,
+    /// A flat on one wheel of the train: `BOGIE:WHEEL:L_MM:D_MM:C_MM:XP_M`, e.g.
+    /// `3:leading:60:0.5:0.1:12.9` (repeat for more).
+    #[arg(long = "flat-on", requires = "train")]
+    pub flat_on: Vec<String>,
+}
+
+// A bank and a measurement to identify against it.
+#[derive(Debug, Args)]
+pub(super) struct MeasuredArgs {
+    /// Bank directory.
+    #[arg(long, default_value = "bank")]
+    pub bank: PathBuf,
+    /// Measurement CSV (`time_s,<sensor>_kn,…`).
+    #[arg(long)]
+    pub measured: PathBuf,
+    /// Only these sensors, e.g. `rps1,rps2` (a broken sensor is left out).
+    #[arg(long, value_delimiter = ',')]
+    pub sensors: Option<Vec<String>>,
+    /// Identification settings and uncertainty table from this calibration file instead of
+    /// the bank's.
+    #[arg(long)]
+    pub calibration: Option<PathBuf>,
+}
+
+// `identify`.
+#[derive(Debug, Args)]
+pub(super) struct IdentifyArgs {
+    #[command(flatten)]
+    pub input: MeasuredArgs,
+    /// Report folder (JSON, PNG/SVG figures, report.html).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Skip the baselines (residual minimisation is always reported) and entropy curves.
+    #[arg(long)]
+    pub no_baselines: bool,
+}
+
+// `train`.
+#[derive(Debug, Args)]
+pub(super) struct TrainArgs {
+    /// Bank directory (a train-profile bank: both wheels, X_p over a revolution).
+    #[arg(long, default_value = "bank")]
+    pub bank: PathBuf,
+    /// The recording: CSV `time_s,<sensor>_kn,…` over the whole train pass.
+    #[arg(long)]
+    pub recording: PathBuf,
+    /// Trigger times, one per wheel passing the laser (`time_s` column).
+    #[arg(long)]
+    pub triggers: PathBuf,
+    /// Report folder: `train.csv`, `train.json`, `train.html`.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+// `audit`.
+#[derive(Debug, Args)]
+pub(super) struct AuditArgs {
+    /// Bank directory.
+    #[arg(long, default_value = "bank")]
+    pub bank: PathBuf,
+    /// Instance number.
+    #[arg(long)]
+    pub instance: usize,
+    /// Measurement CSV to judge the instance against (identified first, as `identify` does).
+    #[arg(long)]
+    pub measured: Option<PathBuf>,
+    /// Only these sensors of the measurement, e.g. `rps1,rps2`.
+    #[arg(long, value_delimiter = ',', requires = "measured")]
+    pub sensors: Option<Vec<String>>,
+    /// Identification settings and uncertainty table from this calibration file instead of
+    /// the bank's.
+    #[arg(long, requires = "measured")]
+    pub calibration: Option<PathBuf>,
+    /// Folder for `audit.json` and `audit.png`.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+// `diagnose`.
+#[derive(Debug, Args)]
+pub(super) struct DiagnoseArgs {
+    #[command(flatten)]
+    pub input: MeasuredArgs,
+    /// Report folder: `diagnosis.json`, `diagnosis.html`, `diagnosis-gap.png`, and with an
+    /// effect named `calibration-with-effect.toml` and the local bank in `local-bank/`.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Instances of the local bank regenerated with the named effect.
+    #[arg(long, default_value_t = 1000)]
+    pub local_instances: usize,
+    /// Name the effect but do not regenerate a bank (no "after").
+    #[arg(long)]
+    pub no_local_bank: bool,
+}
+
+// `compare`.
+#[derive(Debug, Args)]
+pub(super) struct CompareArgs {
+    #[command(flatten)]
+    pub input: MeasuredArgs,
+    /// Truth JSON from `synth`, to mark whether each method's range holds it.
+    #[arg(long)]
+    pub truth: Option<PathBuf>,
+}
+
+// A flat, or none.
+#[derive(Debug, Args)]
+pub(super) struct FlatArgs {
+    /// Flat length L (mm).
+    #[arg(long = "l-mm", default_value_t = 60.0)]
+    pub length_mm: f64,
+    /// Flat depth d (mm).
+    #[arg(long = "d-mm", default_value_t = 0.5)]
+    pub depth_mm: f64,
+    /// Curvature parameter c (mm), 0 ≤ c < d/2.
+    #[arg(long = "c-mm", default_value_t = 0.1)]
+    pub curvature_mm: f64,
+    /// Impact position X_p (m from the left rail end).
+    #[arg(long = "xp-m", default_value_t = 12.4)]
+    pub impact_position_m: f64,
+    /// Simulate a good wheel (no flat): the flat-free signature.
+    #[arg(long, conflicts_with_all = ["length_mm", "depth_mm", "curvature_mm", "impact_position_m"])]
+    pub no_flat: bool,
+}
+
+impl FlatArgs {
+    /// The flat these arguments describe, checked; `None` for `--no-flat`.
+    pub fn flat(&self) -> Result<Option<Flat>> {
+        if self.no_flat {
+            return Ok(None);
+        }
+        Ok(Some(Flat::from_mm(
+            self.length_mm,
+            self.depth_mm,
+            self.curvature_mm,
+            self.impact_position_m,
+        )?))
+    }
+}
+
+// `simulate`.
+#[derive(Debug, Args)]
+pub(super) struct SimulateArgs {
+    #[command(flatten)]
+    pub flat: FlatArgs,
+    /// Calibration file (TOML); the built-in defaults when omitted.
+    #[arg(long)]
+    pub calibration: Option<PathBuf>,
+    /// CSV output: a time column and one pad-force column per sensor (kN).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also draw the series (PNG or SVG, by extension).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Also write the two wheel–rail contact forces (kN) to the CSV and plot.
+    #[arg(long)]
+    pub contact: bool,
+}
+
+/// Parses `--flat-on BOGIE:WHEEL:L_MM:D_MM:C_MM:XP_M` for a train of `bogies` bogies.
+pub(super) fn parse_flat_on(text: &str, bogies: usize) -> Result<TrainFlat> {
+    let f: Vec<&str> = text.split(':').collect();
+    anyhow::ensure!(
+        f.len() == 6,
+        "--flat-on `{text}`: expected BOGIE:WHEEL:L_MM:D_MM:C_MM:XP_M, e.g. 3:leading:60:0.5:0.1:12.9"
+    );
+    let bogie: usize = f[0]
+        .parse()
+        .with_context(|| format!("--flat-on `{text}`: bogie `{}` is not a number", f[0]))?;
+    anyhow::ensure!(
+        (1..=bogies).contains(&bogie),
+        "--flat-on `{text}`: bogie {bogie} is not in the train (1 to {bogies})"
+    );
+    let wheel = match f[1] {
+        "leading" => WheelPosition::Leading,
+        "trailing" => WheelPosition::Trailing,
+        w => anyhow::bail!("--flat-on `{text}`: wheel `{w}` is neither `leading` nor `trailing`"),
+    };
+    let num = |i: usize, what: &str| -> Result<f64> {
+        f[i].parse()
+            .with_context(|| format!("--flat-on `{text}`: {what} `{}` is not a number", f[i]))
+    };
+    let flat = Flat::from_mm(num(2, "L")?, num(3, "d")?, num(4, "c")?, num(5, "X_p")?)
+        .with_context(|| format!("--flat-on `{text}`"))?;
+    Ok(TrainFlat { bogie, wheel, flat })
+}
+
+/// Parses `--effect KIND:KEY=VALUE,…` into an effect (numbers as numbers, anything else as a
+/// string).
+pub(super) fn parse_effect(text: &str) -> Result<Effect> {
+    let (kind, rest) = text.split_once(':').unwrap_or((text, ""));
+    let mut doc = format!("kind = {:?}\n", kind.trim());
+    for pair in rest.split(',').filter(|p| !p.trim().is_empty()) {
+        let (k, v) = pair
+            .split_once('=')
+            .with_context(|| format!("--effect `{text}`: `{pair}` is not KEY=VALUE"))?;
+        let v = v.trim();
+        let value = if v.parse::<f64>().is_ok() {
+            v.to_string()
+        } else {
+            format!("{v:?}")
+        };
+        doc += &format!("{} = {value}\n", k.trim());
+    }
+    toml::from_str(&doc).with_context(|| format!("--effect `{text}`"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn the_grammar_is_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    /// The demo builds its bank arguments in code; they must be what `bank generate --out OUT
+    /// --instances N` parses to (the demo parsed them from such a line before).
+    #[test]
+    fn demo_bank_arguments_equal_the_parsed_defaults() {
+        #[derive(Debug, Parser)]
+        struct Generate {
+            #[command(flatten)]
+            generate: GenerateArgs,
+        }
+        let parsed =
+            Generate::try_parse_from(["demo", "--out", "some/bank", "--instances", "123"]).unwrap();
+        assert_eq!(
+            parsed.generate,
+            GenerateArgs::defaults(PathBuf::from("some/bank"), 123)
+        );
+    }
+
+    #[test]
+    fn shards_parse_and_reject() {
+        assert_eq!(parse_shard("3/10"), Ok((3, 10)));
+        assert_eq!(parse_shard(" 0 / 1 "), Ok((0, 1)));
+        assert!(parse_shard("10/10").is_err());
+        assert!(parse_shard("1/0").is_err());
+        assert!(parse_shard("3").is_err());
+    }
+
+    #[test]
+    fn flat_on_and_effects_parse() {
+        let f = parse_flat_on("3:leading:60:0.5:0.1:12.9", 12).unwrap();
+        assert_eq!((f.bogie, f.wheel), (3, WheelPosition::Leading));
+        assert!(parse_flat_on("13:leading:60:0.5:0.1:12.9", 12).is_err());
+        assert!(parse_flat_on("3:middle:60:0.5:0.1:12.9", 12).is_err());
+        assert!(parse_effect("pad_stiffness:sleeper=16,factor=0.5").is_ok());
+        assert!(parse_effect("pad_stiffness:sleeper").is_err());
+    }
+}

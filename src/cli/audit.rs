@@ -1,0 +1,63 @@
+//! `wheelflat audit`: one instance re-simulated and, with a measurement, judged point by point.
+
+use super::args::AuditArgs;
+use super::{create_output_folder, open_identifier, write_file};
+use crate::audit::{check_against, compare, Resimulator};
+use crate::bank::Bank;
+use crate::report::audit::draw_audit;
+use crate::report::tables::{
+    audit_instance_line, audit_json, audit_panels, audit_table, audit_title,
+};
+use anyhow::{Context, Result};
+
+/// Re-simulates the instance, prints the verdict (and the table against a measurement), and
+/// writes `audit.json` and `audit.png` when given a folder.
+pub(super) fn run(a: &AuditArgs) -> Result<()> {
+    let b =
+        Bank::open(&a.bank).with_context(|| format!("cannot open bank {}", a.bank.display()))?;
+    let stored = b.read_instance(a.instance)?;
+    println!("{}", audit_instance_line(&stored));
+    let resim = Resimulator::new(&b, None)?;
+    let series = resim.run(&stored, &mut resim.workspace())?;
+    let comparison = compare(&stored, &series, &b);
+    println!(
+        "re-simulated with the bank's stored calibration (bank id {}): {}",
+        b.metadata().bank_id,
+        comparison.verdict()
+    );
+    if !comparison.identical {
+        println!("  the code or its calibration handling changed since this bank was built");
+    }
+    let mut check = None;
+    let mut identification = None;
+    if let Some(measured) = &a.measured {
+        let (identifier, m) = open_identifier(&a.bank, measured, a.calibration.as_deref())?;
+        let id = identifier.identify(&m, a.sensors.as_deref(), crate::identify::Extras::NONE)?;
+        let c = check_against(&identifier, &id, &stored)?;
+        print!("{}", audit_table(&c));
+        check = Some(c);
+        identification = Some(id);
+    }
+    if let Some(out) = &a.out {
+        create_output_folder(out)?;
+        let json = audit_json(&stored, &b.metadata().bank_id, &comparison, check.as_ref());
+        let json_path = out.join("audit.json");
+        write_file(
+            &json_path,
+            serde_json::to_string_pretty(&json)
+                .expect("audit serialises")
+                .as_bytes(),
+        )?;
+        let png = out.join("audit.png");
+        let panels = audit_panels(
+            &b.metadata().sensors,
+            &stored,
+            &series,
+            identification.as_ref(),
+            check.as_ref(),
+        );
+        draw_audit(&audit_title(&stored, check.as_ref()), &panels, &png)?;
+        println!("wrote {} and {}", json_path.display(), png.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,179 @@
+//! `wheelflat bank …`: generate, merge, info, verify and audit a bank.
+
+use super::args::GenerateArgs;
+use super::load_calibration;
+use super::progress::Progress;
+use crate::audit::BankAudit;
+use crate::bank::info::{parameter_ranges, BankSize};
+use crate::bank::{self, Bank, GenerateOptions, Outcome, StorageFormat};
+use anyhow::{Context, Result};
+use std::path::Path;
+use std::time::Instant;
+
+/// `bank generate` (`simulate_missing`) and `bank merge` (not): builds or completes the bank
+/// on a pool of the asked threads, with progress on standard error.
+pub(super) fn generate(a: &GenerateArgs, simulate_missing: bool) -> Result<()> {
+    let cal = load_calibration(a.calibration.as_deref())?;
+    let opts = GenerateOptions {
+        instances: a.instances,
+        seed: a.seed,
+        shard_size: a.shard_size,
+        machine_shard: a.shard,
+        format: StorageFormat {
+            codec: a.compression,
+            encoding: a.encoding,
+        },
+        simulate_missing,
+    };
+    let threads = a
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("cannot start the worker threads")?;
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create bank directory {}", a.out.display()))?;
+    let progress = Progress::new().with_terminal();
+    let started = Instant::now();
+    let outcome = pool.install(|| bank::generate(&cal, &a.out, &opts, &progress));
+    progress.finish();
+    let outcome = outcome.with_context(|| format!("bank {}", a.out.display()))?;
+    let secs = started.elapsed().as_secs_f64();
+    match outcome {
+        Outcome::UpToDate { version } => {
+            println!(
+                "bank {} is up to date ({}); nothing to do",
+                a.out.display(),
+                version.display()
+            );
+        }
+        Outcome::Complete {
+            version,
+            simulated,
+            resumed,
+        } => {
+            println!(
+                "bank complete: {} instances in {} ({simulated} simulated in {secs:.1} s, {:.0} instances/s on {threads} threads; {resumed} kept from an earlier run); CURRENT -> {}",
+                a.instances,
+                version.display(),
+                simulated as f64 / secs.max(1e-9),
+                version.file_name().map(|n| n.to_string_lossy()).unwrap_or_default()
+            );
+        }
+        Outcome::ShardDone {
+            version,
+            simulated,
+            files,
+        } => {
+            let (i, n) = a.shard.unwrap_or((0, 1));
+            println!(
+                "shard {i}/{n} done: {files} shard files in {} ({simulated} instances simulated in {secs:.1} s); run `wheelflat bank merge` with the same arguments when all shards are done",
+                version.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// `bank info`: metadata, size and parameter ranges.
+pub(super) fn info(dir: &Path) -> Result<()> {
+    let b = Bank::open(dir).with_context(|| format!("cannot open bank {}", dir.display()))?;
+    let m = b.metadata();
+    let size = BankSize::of(&b);
+    println!("bank            {}", b.dir().display());
+    println!("bank id         {}", m.bank_id);
+    println!(
+        "format          {} ({}), model revision {}",
+        m.format_version, m.generator, m.model_revision
+    );
+    println!("calibration     sha256 {}", m.calibration_sha256);
+    println!(
+        "instances       {} in {} shard files of {}",
+        size.instances, size.files, m.shard_size
+    );
+    println!("sampling        {} (seed {})", m.sampling, m.seed);
+    println!(
+        "size            {:.1} MB, {:.1} kB per instance",
+        size.megabytes(),
+        size.kilobytes_per_instance()
+    );
+    println!("sensors         (force in {})", m.force_unit);
+    for s in &m.sensors {
+        println!(
+            "  {:<6} sleeper {:>2} at {:>6.2} m: {} samples at {} Hz from t = {:.4} s",
+            s.name, s.sleeper, s.position_m, s.samples, s.sample_rate_hz, s.t0_s
+        );
+    }
+    let ranges =
+        parameter_ranges(&b).with_context(|| format!("reading parameters of {}", dir.display()))?;
+    println!("parameter ranges");
+    for r in ranges {
+        println!("  {:<18} [{:.4}, {:.4}]", r.name, r.min, r.max);
+    }
+    Ok(())
+}
+
+/// `bank verify`: every file against the manifest; fails naming the bad files.
+pub(super) fn verify(dir: &Path) -> Result<()> {
+    let (manifest, problems) =
+        bank::verify(dir).with_context(|| format!("cannot verify bank {}", dir.display()))?;
+    if problems.is_empty() {
+        println!(
+            "bank {} verified: {} files, {} instances, checksums match",
+            dir.display(),
+            manifest.files.len(),
+            manifest.instances
+        );
+        return Ok(());
+    }
+    for p in &problems {
+        eprintln!("{}: {}", p.path.display(), p.message);
+    }
+    anyhow::bail!(
+        "bank {} failed verification: {} of {} files bad",
+        dir.display(),
+        problems.len(),
+        manifest.files.len()
+    )
+}
+
+/// `bank audit`: re-simulates `sample` instances ([`BankAudit`]), prints each verdict and
+/// fails on drift.
+pub(super) fn audit(dir: &Path, sample: usize, calibration: Option<&Path>) -> Result<()> {
+    let b = Bank::open(dir).with_context(|| format!("cannot open bank {}", dir.display()))?;
+    let against = match calibration {
+        Some(p) => Some(load_calibration(Some(p))?),
+        None => None,
+    };
+    let what = match calibration {
+        Some(p) => format!("the calibration in {}", p.display()),
+        None => "the calibration stored in the bank".into(),
+    };
+    let plan = BankAudit::new(&b, against, sample)?;
+    println!(
+        "bank {} ({} instances, bank id {}): re-simulating {} instances with {what}",
+        dir.display(),
+        b.instances(),
+        b.metadata().bank_id,
+        plan.instances().len()
+    );
+    let report = plan.run()?;
+    for r in &report.results {
+        println!("  instance {:>6}: {}", r.instance, r.verdict());
+    }
+    let drifted = report.drifted();
+    if drifted.is_empty() {
+        println!(
+            "no drift: all {} re-simulated instances match the bank bit for bit",
+            report.results.len()
+        );
+        return Ok(());
+    }
+    anyhow::bail!(
+        "DRIFT: {} of {} re-simulated instances differ from the bank (max |Δ| {:.4} kN). The bank no longer matches this code and {what}: find the change, or regenerate the bank (`wheelflat bank generate`)",
+        drifted.len(),
+        report.results.len(),
+        report.worst_kn()
+    )
+}

@@ -1,0 +1,46 @@
+//! `wheelflat diagnose`: name a model gap, add the effect, identify again.
+
+use super::args::DiagnoseArgs;
+use super::open_identifier;
+use super::progress::Progress;
+use crate::identify::Extras;
+use crate::report::tables::diagnosis_text;
+use anyhow::Result;
+
+/// Identifies, diagnoses (with progress for the local bank), writes the report and prints
+/// the verdict, the stages and the ranking.
+pub(super) fn run(a: &DiagnoseArgs) -> Result<()> {
+    let i = &a.input;
+    let (identifier, m) = open_identifier(&i.bank, &i.measured, i.calibration.as_deref())?;
+    let sensors = i.sensors.as_deref();
+    let id = identifier.identify(&m, sensors, Extras::NONE)?;
+    eprintln!(
+        "identified: {} of {} instances kept; diagnosing (fits by re-simulation, a minute at most)",
+        id.cms.len(),
+        id.bank_instances
+    );
+    let opts = crate::diagnose::Options {
+        local_instances: a.local_instances,
+        local_bank_dir: (!a.no_local_bank).then(|| a.out.join("local-bank")),
+        ..Default::default()
+    };
+    let progress = Progress::new().with_terminal();
+    let d = crate::diagnose::diagnose(&identifier, &m, sensors, &id, &opts, &progress)?;
+    let times: Vec<(String, f64, f64)> = id
+        .series
+        .iter()
+        .map(|s| (s.sensor.clone(), s.t0_s, s.sample_rate_hz))
+        .collect();
+    let files = crate::report::diagnose::write_diagnosis_report(&d, &times, &a.out)?;
+    print!("{}", diagnosis_text(&d));
+    println!(
+        "wrote {}, {} and {}{}",
+        files.json.display(),
+        files.html.display(),
+        files.figure.display(),
+        files
+            .calibration
+            .map_or(String::new(), |p| format!(", {}", p.display()))
+    );
+    Ok(())
+}

@@ -1,0 +1,64 @@
+//! `wheelflat identify` and `wheelflat compare`: one measurement against a bank.
+
+use super::args::{CompareArgs, IdentifyArgs};
+use super::open_identifier;
+use crate::identify::synth::Truth;
+use crate::identify::{Extras, Identification};
+use crate::report::tables::{comparison_table, identification_text};
+use anyhow::{Context, Result};
+use std::path::Path;
+
+/// Identifies and writes the report folder.
+pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
+    let i = &a.input;
+    let (identifier, m) = open_identifier(&i.bank, &i.measured, i.calibration.as_deref())?;
+    let extras = Extras {
+        baselines: !a.no_baselines,
+        curves: !a.no_baselines,
+    };
+    let id = identifier.identify(&m, i.sensors.as_deref(), extras)?;
+    report(&id, &a.out, None)
+}
+
+/// Writes an identification's report into `dir` and prints its summary and comparison table.
+pub(super) fn report(id: &Identification, dir: &Path, truth: Option<&Truth>) -> Result<()> {
+    let files = crate::report::identify::write_identification_report(id, dir)
+        .with_context(|| format!("cannot write the report in {}", dir.display()))?;
+    print!("{}", identification_text(id));
+    print!("{}", comparison_table(id, truth));
+    println!(
+        "wrote {} and {} ({} figures)",
+        files.json.display(),
+        files.html.display(),
+        files.figures.len()
+    );
+    Ok(())
+}
+
+/// Identifies with the baselines and prints the comparison table (against the truth when
+/// given).
+pub(super) fn compare(a: &CompareArgs) -> Result<()> {
+    let i = &a.input;
+    let (identifier, m) = open_identifier(&i.bank, &i.measured, i.calibration.as_deref())?;
+    let truth = match &a.truth {
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("cannot read truth {}", p.display()))?;
+            Some(
+                serde_json::from_str::<Truth>(&text)
+                    .with_context(|| format!("in truth file {}", p.display()))?,
+            )
+        }
+        None => None,
+    };
+    let id = identifier.identify(
+        &m,
+        i.sensors.as_deref(),
+        Extras {
+            baselines: true,
+            curves: false,
+        },
+    )?;
+    print!("{}", comparison_table(&id, truth.as_ref()));
+    Ok(())
+}

@@ -1,0 +1,100 @@
+//! The progress observer of long jobs (bank generation, the diagnosis' local bank): it
+//! attaches to the library from outside ([`GenerateObserver`]) and never touches the physics.
+
+use crate::bank::GenerateObserver;
+use std::io::IsTerminal;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+/// Progress of a bank generation: an indicatif bar on a terminal, plain periodic log lines
+/// otherwise (cron, batch schedulers).
+pub(super) struct Progress {
+    bar: Option<indicatif::ProgressBar>,
+    done: AtomicUsize,
+    total: AtomicUsize,
+    started: Instant,
+    last_log: Mutex<Instant>,
+}
+
+impl Progress {
+    /// Log lines only, until [`Progress::with_terminal`] adds a bar.
+    pub fn new() -> Progress {
+        Progress {
+            bar: None,
+            done: AtomicUsize::new(0),
+            total: AtomicUsize::new(0),
+            started: Instant::now(),
+            last_log: Mutex::new(Instant::now()),
+        }
+    }
+
+    /// Draws a bar instead of log lines when standard error is a terminal.
+    pub fn with_terminal(mut self) -> Progress {
+        if std::io::stderr().is_terminal() {
+            let bar = indicatif::ProgressBar::new(0);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} instances  {per_sec}  ETA {eta}",
+                )
+                .expect("valid template"),
+            );
+            self.bar = Some(bar);
+        }
+        self
+    }
+
+    /// Removes the bar, if any, once the job is over.
+    pub fn finish(&self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
+
+    fn log_line(&self) -> String {
+        let done = self.done.load(Ordering::Relaxed);
+        let total = self.total.load(Ordering::Relaxed).max(1);
+        let secs = self.started.elapsed().as_secs_f64();
+        let rate = done as f64 / secs.max(1e-9);
+        let eta = (total - done.min(total)) as f64 / rate.max(1e-9);
+        format!(
+            "bank: {done}/{total} instances ({:.1} %), {rate:.0} instances/s, ETA {:.0} s",
+            100.0 * done as f64 / total as f64,
+            eta
+        )
+    }
+}
+
+impl GenerateObserver for Progress {
+    fn started(&self, to_simulate: usize, already_done: usize) {
+        self.total.store(to_simulate, Ordering::Relaxed);
+        if already_done > 0 {
+            eprintln!("bank: resuming, {already_done} instances already on disk");
+        }
+        if let Some(b) = &self.bar {
+            b.set_length(to_simulate as u64);
+        } else if to_simulate > 0 {
+            eprintln!("bank: simulating {to_simulate} instances");
+        }
+    }
+
+    fn instance_done(&self) {
+        self.done.fetch_add(1, Ordering::Relaxed);
+        if let Some(b) = &self.bar {
+            b.inc(1);
+            return;
+        }
+        let mut last = self.last_log.lock().unwrap_or_else(|e| e.into_inner());
+        if last.elapsed().as_secs_f64() >= 10.0 {
+            *last = Instant::now();
+            eprintln!("{}", self.log_line());
+        }
+    }
+
+    fn file_written(&self, name: &str) {
+        match &self.bar {
+            Some(b) => b.println(format!("wrote {name}")),
+            None => eprintln!("bank: wrote {name}"),
+        }
+    }
+}

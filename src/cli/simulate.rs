@@ -1,0 +1,40 @@
+//! `wheelflat simulate`: one pass over the sensors, written as CSV (and a figure).
+
+use super::args::SimulateArgs;
+use super::{load_calibration, write_file};
+use crate::model::{CheckedCalibration, Record, Response, Simulator};
+use crate::report::response::{flat_title, plot_response, response_csv, response_summary};
+use anyhow::{Context, Result};
+use std::path::Path;
+use std::time::Instant;
+
+/// Simulates, writes the CSV, prints the summary and the timing, draws the figure if asked.
+pub(super) fn run(a: &SimulateArgs) -> Result<()> {
+    let cal = load_calibration(a.calibration.as_deref())?;
+    let flat = a.flat.flat()?;
+    let started = Instant::now();
+    let sim = Simulator::new(&cal)?;
+    let resp = sim.run(flat.as_ref(), Record { contact: a.contact })?;
+    let elapsed = started.elapsed();
+    write_file(&a.out, response_csv(&cal, &resp).as_bytes())?;
+    println!("{}", flat_title(flat.as_ref()));
+    print!("{}", response_summary(&cal, &resp));
+    println!(
+        "simulated {:.3} s of train passage in {:.1} ms ({} coarse + {} fine steps); wrote {}",
+        cal.end_sample() as f64 / cal.output.sample_rate_hz,
+        elapsed.as_secs_f64() * 1e3,
+        resp.steps[0],
+        resp.steps[1],
+        a.out.display()
+    );
+    if let Some(p) = &a.plot {
+        draw(&cal, &resp, &flat_title(flat.as_ref()), p)?;
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// [`plot_response`], naming the figure in the error.
+pub(super) fn draw(cal: &CheckedCalibration, r: &Response, title: &str, path: &Path) -> Result<()> {
+    plot_response(cal, r, title, path).with_context(|| format!("cannot draw {}", path.display()))
+}

@@ -1,0 +1,90 @@
+//! `wheelflat synth`: a field-like measurement of one bogie or a whole train, with its truth.
+
+use super::args::{parse_effect, parse_flat_on, SynthArgs};
+use super::{load_calibration, write_file};
+use crate::identify::synth::synthesize;
+use crate::model::CheckedCalibration;
+use crate::report::response::flat_title;
+use crate::train::{default_flats, synthesize_train, TrainSpec};
+use anyhow::{Context, Result};
+
+/// Adds the `--effect`s to the calibration, then synthesises one bogie or (`--train`) a
+/// train, writing the measurement and its truth.
+pub(super) fn run(a: &SynthArgs) -> Result<()> {
+    let mut cal = load_calibration(a.calibration.as_deref())?;
+    if !a.effects.is_empty() {
+        let mut doc = cal.document().clone();
+        for e in &a.effects {
+            doc.effects.push(parse_effect(e)?);
+        }
+        cal = doc.check().context("the effects given with --effect")?;
+    }
+    if a.train {
+        return train(a, &cal);
+    }
+    let flat = a
+        .flat
+        .flat()?
+        .context("synth needs a flat (drop --no-flat)")?;
+    let syn = synthesize(&cal, &flat, a.seed, !a.no_trigger)?;
+    let truth_path = a
+        .truth
+        .clone()
+        .unwrap_or_else(|| a.out.with_extension("truth.json"));
+    write_file(&a.out, syn.csv.as_bytes())?;
+    let json = serde_json::to_string_pretty(&syn.truth).expect("truth serialises");
+    write_file(&truth_path, json.as_bytes())?;
+    println!(
+        "synthetic measurement of {} (L0 {:.1} mm){}, seed {}: wrote {} and {}",
+        flat_title(Some(&flat)),
+        syn.truth.l0_mm,
+        if cal.effects.is_empty() {
+            String::new()
+        } else {
+            format!(" with hidden effects {:?}", cal.effects)
+        },
+        a.seed,
+        a.out.display(),
+        truth_path.display()
+    );
+    Ok(())
+}
+
+/// `synth --train`: the recording, its trigger file and the truth.
+fn train(a: &SynthArgs, cal: &CheckedCalibration) -> Result<()> {
+    let flats = if a.flat_on.is_empty() {
+        default_flats()
+    } else {
+        a.flat_on
+            .iter()
+            .map(|t| parse_flat_on(t, a.bogies))
+            .collect::<Result<Vec<_>>>()?
+    };
+    let mut spec = TrainSpec::twelve_bogies(flats, a.seed);
+    spec.bogies = a.bogies;
+    let syn = synthesize_train(cal, &spec)?;
+    let triggers = a.out.with_extension("triggers.csv");
+    let truth = a
+        .truth
+        .clone()
+        .unwrap_or_else(|| a.out.with_extension("truth.json"));
+    write_file(&a.out, syn.csv.as_bytes())?;
+    write_file(&triggers, syn.triggers_csv.as_bytes())?;
+    let json = serde_json::to_string_pretty(&syn.truth).expect("truth serialises");
+    write_file(&truth, json.as_bytes())?;
+    println!(
+        "synthetic train of {} bogies, flats on {}, seed {}: wrote {}, {} and {}",
+        a.bogies,
+        syn.truth
+            .flats
+            .iter()
+            .map(|f| format!("bogie {} {} (L0 {:.1} mm)", f.0, f.1.name(), f.6))
+            .collect::<Vec<_>>()
+            .join(", "),
+        a.seed,
+        a.out.display(),
+        triggers.display(),
+        truth.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,183 @@
+//! The maintenance rule, in one place: how urgent a flat is from the fresh-flat length L0 it
+//! may have, and the words that go with it (the identification's verdict and hint, the
+//! train table's severity and its rule).
+//!
+//! The rule reads the upper bound of L0 over the candidate model set, the conservative end
+//! (an under-estimated flat is the safety risk): from `urgent_l0_mm` the wheelset is removed
+//! from service within 24 hours, from `inspect_l0_mm` the wheel is inspected, below that it
+//! is monitored. A good wheel is `none`; a wheel whose model class is refuted is inspected.
+
+use super::result::ParamRanges;
+use crate::model::calibration::IdentificationParams;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// How urgent a wheel is, ordered from harmless to urgent. Serialises (JSON, CSV) as its
+/// lower-case name: `none`, `monitor`, `inspect`, `urgent`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Severity {
+    /// No flat can be told from the measurement (the good-wheel check passes).
+    None,
+    /// A flat below the inspection limit: keep watching it.
+    Monitor,
+    /// Inspect the wheel at the next opportunity (also when the model is refuted).
+    Inspect,
+    /// Remove the wheelset from service within 24 hours.
+    Urgent,
+}
+
+impl Severity {
+    /// The rule on the upper L0 bound (mm): `urgent` from `urgent_l0_mm`, `inspect` from
+    /// `inspect_l0_mm`, else `monitor`.
+    pub fn of_upper_l0(upper_l0_mm: f64, urgent_l0_mm: f64, inspect_l0_mm: f64) -> Severity {
+        if upper_l0_mm >= urgent_l0_mm {
+            Severity::Urgent
+        } else if upper_l0_mm >= inspect_l0_mm {
+            Severity::Inspect
+        } else {
+            Severity::Monitor
+        }
+    }
+
+    /// One wheel of the train table, from its `flat` verdict (`no`, `yes` or `unknown`) and
+    /// the L0 range of its flat: `none` without a flat, the L0 rule with one, `inspect` when
+    /// the model is refuted (something the model lacks is on the wheel or the track).
+    pub fn of_wheel(
+        flat: &str,
+        l0_mm: Option<[f64; 2]>,
+        urgent_l0_mm: f64,
+        inspect_l0_mm: f64,
+    ) -> Severity {
+        match (flat, l0_mm) {
+            ("no", _) => Severity::None,
+            ("yes", Some([_, hi])) => Severity::of_upper_l0(hi, urgent_l0_mm, inspect_l0_mm),
+            _ => Severity::Inspect,
+        }
+    }
+
+    /// The name files and people use: `none`, `monitor`, `inspect` or `urgent`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Severity::None => "none",
+            Severity::Monitor => "monitor",
+            Severity::Inspect => "inspect",
+            Severity::Urgent => "urgent",
+        }
+    }
+
+    /// The maintenance hint of one identification, with the rule stated: from the upper L0
+    /// bound of its candidate model set, or `None` when every instance is falsified.
+    pub fn maintenance_hint(upper_l0_mm: Option<f64>, s: &IdentificationParams) -> String {
+        let Some(upper) = upper_l0_mm else {
+            return "No flat size can be given: inspect the wheelset and the track at the sensors before relying on this system.".into();
+        };
+        match Severity::of_upper_l0(upper, s.urgent_l0_mm, s.inspect_l0_mm) {
+            Severity::Urgent => format!("Remove the wheelset from service within 24 hours: the largest L0 that fits the measurement ({upper:.0} mm) reaches the urgent limit of {:.0} mm (rule: upper L0 bound ≥ urgent_l0_mm).", s.urgent_l0_mm),
+            Severity::Inspect => format!("Inspect the wheel at the next opportunity: the largest L0 that fits ({upper:.0} mm) is between the inspection limit {:.0} mm and the urgent limit {:.0} mm.", s.inspect_l0_mm, s.urgent_l0_mm),
+            // The L0 rule gives no `none`: a flat that fits is at least monitored.
+            Severity::Monitor | Severity::None => format!("Monitor: the largest L0 that fits ({upper:.0} mm) is below the inspection limit of {:.0} mm.", s.inspect_l0_mm),
+        }
+    }
+
+    /// The train table's rule in words, for a good-wheel check at `phi_bogie` per bogie.
+    pub fn train_rule(phi_bogie: f64, s: &IdentificationParams) -> String {
+        format!(
+        "none: the good-wheel check passes at every PIP at φ^(1/bogies) = {:.4} (no flat can be told from the measurement); otherwise by the upper L0 bound of the wheel's candidate model set: urgent (remove within 24 h) from {} mm, inspect from {} mm, monitor below; inspect when every instance is falsified (the model is refuted)",
+        phi_bogie, s.urgent_l0_mm, s.inspect_l0_mm
+    )
+    }
+}
+
+impl fmt::Display for Severity {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.pad(self.as_str())
+    }
+}
+
+/// A severity equals its name (`Severity::Urgent == "urgent"`), as the files write it.
+impl PartialEq<&str> for Severity {
+    fn eq(&self, other: &&str) -> bool {
+        self.as_str() == *other
+    }
+}
+
+/// The human verdict and the maintenance hint (rule stated in the text).
+pub(crate) fn summarise(
+    r: &Option<ParamRanges>,
+    count: usize,
+    n: usize,
+    m: usize,
+    s: &IdentificationParams,
+) -> (String, String) {
+    match r {
+        None => (
+            format!(
+                "Every one of the {n} model instances is falsified at {m} comparison points (φ = {}): the model class itself is refuted. The measurement shows something the model lacks; run `wheelflat diagnose` to locate and name it.",
+                s.phi
+            ),
+            Severity::maintenance_hint(None, s),
+        ),
+        Some(r) => {
+            let summary = format!(
+                "{count} of {n} model instances survive {m} comparison points (φ = {}): flat length L in [{:.0}, {:.0}] mm, depth d in [{:.2}, {:.2}] mm, fresh-flat length L0 in [{:.0}, {:.0}] mm, impact at X_p in [{:.2}, {:.2}] m.",
+                s.phi, r.length_mm[0], r.length_mm[1], r.depth_mm[0], r.depth_mm[1], r.l0_mm[0], r.l0_mm[1], r.impact_position_m[0], r.impact_position_m[1]
+            );
+            let hint = Severity::maintenance_hint(Some(r.l0_mm[1]), s);
+            (summary, hint)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn severity_follows_the_stated_rule() {
+        // Moved from `train::severity`, which is now `Severity::of_wheel`.
+        let severity = Severity::of_wheel;
+        assert_eq!(severity("no", None, 40.0, 25.0), "none");
+        assert_eq!(severity("yes", Some([30.0, 41.0]), 40.0, 25.0), "urgent");
+        assert_eq!(severity("yes", Some([20.0, 30.0]), 40.0, 25.0), "inspect");
+        assert_eq!(severity("yes", Some([18.0, 24.0]), 40.0, 25.0), "monitor");
+        assert_eq!(severity("unknown", None, 40.0, 25.0), "inspect");
+    }
+
+    #[test]
+    fn the_limits_themselves_belong_to_the_graver_class() {
+        assert_eq!(Severity::of_upper_l0(40.0, 40.0, 25.0), Severity::Urgent);
+        assert_eq!(Severity::of_upper_l0(25.0, 40.0, 25.0), Severity::Inspect);
+        assert_eq!(Severity::of_upper_l0(24.999, 40.0, 25.0), Severity::Monitor);
+        assert!(Severity::None < Severity::Monitor && Severity::Inspect < Severity::Urgent);
+    }
+
+    #[test]
+    fn serialises_to_the_names_the_files_have_always_used() {
+        for (s, name) in [
+            (Severity::None, "none"),
+            (Severity::Monitor, "monitor"),
+            (Severity::Inspect, "inspect"),
+            (Severity::Urgent, "urgent"),
+        ] {
+            assert_eq!(serde_json::to_string(&s).unwrap(), format!("\"{name}\""));
+            assert_eq!(
+                serde_json::from_str::<Severity>(&format!("\"{name}\"")).unwrap(),
+                s
+            );
+            assert_eq!(s.to_string(), name);
+            assert_eq!(format!("{s:<8}|"), format!("{name:<8}|"));
+        }
+    }
+
+    #[test]
+    fn the_hint_states_the_rule_and_the_bound() {
+        let s = IdentificationParams::default(); // urgent 40 mm, inspect 25 mm
+        let hint = |upper| Severity::maintenance_hint(upper, &s);
+        assert!(hint(Some(41.2)).starts_with("Remove the wheelset from service within 24 hours"));
+        assert!(hint(Some(41.2)).contains("(41 mm) reaches the urgent limit of 40 mm"));
+        assert!(hint(Some(30.0)).starts_with("Inspect the wheel at the next opportunity"));
+        assert!(hint(Some(20.0)).starts_with("Monitor: the largest L0 that fits (20 mm)"));
+        assert!(hint(None).starts_with("No flat size can be given"));
+    }
+}

@@ -1,0 +1,411 @@
+//! [`Calibration::check`]: every value checked once, naming the key and the value it rejects.
+
+use super::{Calibration, CalibrationError, CheckedCalibration, Effect};
+
+impl Calibration {
+    /// Checks every value once and returns the validated form.
+    pub fn check(self) -> Result<CheckedCalibration, CalibrationError> {
+        let t = &self.track;
+        positive("track.bays", t.bays as f64)?;
+        positive("track.sleeper_spacing_m", t.sleeper_spacing_m)?;
+        positive("track.youngs_modulus_pa", t.youngs_modulus_pa)?;
+        positive("track.shear_modulus_pa", t.shear_modulus_pa)?;
+        positive("track.rail_area_m2", t.rail_area_m2)?;
+        positive("track.rail_second_moment_m4", t.rail_second_moment_m4)?;
+        positive("track.shear_coefficient", t.shear_coefficient)?;
+        at_most("track.shear_coefficient", t.shear_coefficient, 1.0)?;
+        positive("track.rail_density_kg_per_m3", t.rail_density_kg_per_m3)?;
+        positive("track.pad_stiffness_n_per_m", t.pad_stiffness_n_per_m)?;
+        non_negative("track.pad_damping_ns_per_m", t.pad_damping_ns_per_m)?;
+        positive("track.sleeper_mass_kg", t.sleeper_mass_kg)?;
+        positive(
+            "track.ballast_stiffness_n_per_m",
+            t.ballast_stiffness_n_per_m,
+        )?;
+        non_negative("track.ballast_damping_ns_per_m", t.ballast_damping_ns_per_m)?;
+        if t.bays < 2 {
+            return Err(invalid("track.bays", t.bays, "at least 2 bays are needed"));
+        }
+
+        let v = &self.vehicle;
+        positive("vehicle.bogie_mass_kg", v.bogie_mass_kg)?;
+        positive(
+            "vehicle.bogie_pitch_inertia_kg_m2",
+            v.bogie_pitch_inertia_kg_m2,
+        )?;
+        positive("vehicle.wheel_mass_kg", v.wheel_mass_kg)?;
+        positive(
+            "vehicle.primary_stiffness_n_per_m",
+            v.primary_stiffness_n_per_m,
+        )?;
+        non_negative(
+            "vehicle.primary_damping_ns_per_m",
+            v.primary_damping_ns_per_m,
+        )?;
+        positive("vehicle.half_wheelbase_m", v.half_wheelbase_m)?;
+        non_negative("vehicle.car_body_mass_kg", v.car_body_mass_kg)?;
+        positive("vehicle.wheel_radius_m", v.wheel_radius_m)?;
+        positive("vehicle.gravity_m_per_s2", v.gravity_m_per_s2)?;
+        if let Some(ch) = self.contact.hertz_constant_n_per_m1_5 {
+            positive("contact.hertz_constant_n_per_m1_5", ch)?;
+        }
+
+        positive("run.speed_km_per_h", self.run.speed_km_per_h)?;
+        let rail_m = t.bays as f64 * t.sleeper_spacing_m;
+        finite("run.leading_wheel_start_m", self.run.leading_wheel_start_m)?;
+        let trailing_start = self.run.leading_wheel_start_m - 2.0 * v.half_wheelbase_m;
+        if trailing_start <= 0.0 || self.run.leading_wheel_start_m >= rail_m {
+            return Err(invalid(
+                "run.leading_wheel_start_m",
+                self.run.leading_wheel_start_m,
+                &format!(
+                    "both wheels must start on the rail (0, {rail_m} m); the trailing wheel would be at {trailing_start} m"
+                ),
+            ));
+        }
+
+        finite("sensors.laser_trigger_m", self.sensors.laser_trigger_m)?;
+        if self.sensors.laser_trigger_m <= 0.0 || self.sensors.laser_trigger_m >= rail_m {
+            return Err(invalid(
+                "sensors.laser_trigger_m",
+                self.sensors.laser_trigger_m,
+                &format!("must lie on the rail (0, {rail_m} m)"),
+            ));
+        }
+        if self.sensors.pad.is_empty() {
+            return Err(invalid(
+                "sensors.pad",
+                "[]",
+                "at least one sensor is needed",
+            ));
+        }
+        for (i, s) in self.sensors.pad.iter().enumerate() {
+            let key = format!("sensors.pad[{i}].sleeper");
+            if s.sleeper == 0 || s.sleeper >= t.bays {
+                return Err(invalid(
+                    &key,
+                    s.sleeper,
+                    &format!(
+                        "sensor `{}` must sit on a sleeper 1..={} of the modelled rail",
+                        s.name,
+                        t.bays - 1
+                    ),
+                ));
+            }
+            let name_ok = !s.name.is_empty()
+                && s.name
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '_');
+            if !name_ok {
+                return Err(invalid(
+                    &format!("sensors.pad[{i}].name"),
+                    format!("{:?}", s.name),
+                    "names are non-empty and use letters, digits and '_' only",
+                ));
+            }
+            if self.sensors.pad[..i].iter().any(|o| o.name == s.name) {
+                return Err(invalid(
+                    &format!("sensors.pad[{i}].name"),
+                    format!("{:?}", s.name),
+                    "duplicate sensor name",
+                ));
+            }
+        }
+
+        positive("output.sample_rate_hz", self.output.sample_rate_hz)?;
+        positive("output.window_samples", self.output.window_samples as f64)?;
+
+        let n = &self.integration;
+        positive("integration.elements_per_bay", n.elements_per_bay as f64)?;
+        positive(
+            "integration.coarse_steps_per_sample",
+            n.coarse_steps_per_sample as f64,
+        )?;
+        positive(
+            "integration.fine_steps_per_coarse",
+            n.fine_steps_per_coarse as f64,
+        )?;
+        non_negative("integration.fine_before_strike_s", n.fine_before_strike_s)?;
+        non_negative("integration.fine_after_strike_s", n.fine_after_strike_s)?;
+
+        let p = &self.population;
+        range("population.length_mm", p.length_mm, 0.0)?;
+        range("population.depth_mm", p.depth_mm, 0.0)?;
+        range("population.curvature_mm", p.curvature_mm, -1.0)?;
+        non_negative("population.curvature_mm[0]", p.curvature_mm[0])?;
+        range("population.impact_position_m", p.impact_position_m, -1.0)?;
+        if let Some(w) = &p.flat_wheels {
+            if w.is_empty() || (w.len() == 2 && w[0] == w[1]) || w.len() > 2 {
+                return Err(invalid(
+                    "population.flat_wheels",
+                    format!("{w:?}"),
+                    "one or both of \"leading\", \"trailing\", each once",
+                ));
+            }
+        }
+        if p.curvature_mm[0] >= p.depth_mm[0] / 2.0 {
+            return Err(invalid(
+                "population.curvature_mm[0]",
+                p.curvature_mm[0],
+                &format!(
+                    "must be below half the smallest depth ({} mm) so that c < d/2 can hold",
+                    p.depth_mm[0] / 2.0
+                ),
+            ));
+        }
+        for (i, e) in self.effects.iter().enumerate() {
+            let key = |name: &str| format!("effects[{i}].{name}");
+            let on_track = |k: usize| {
+                if (1..t.bays).contains(&k) {
+                    Ok(())
+                } else {
+                    Err(invalid(
+                        &key("sleeper"),
+                        k,
+                        &format!("a sleeper of the track, 1 to {}", t.bays - 1),
+                    ))
+                }
+            };
+            match e {
+                Effect::VoidedSleeper { sleeper, gap_mm } => {
+                    on_track(*sleeper)?;
+                    non_negative(&key("gap_mm"), *gap_mm)?;
+                }
+                Effect::PadStiffness { sleeper, factor }
+                | Effect::BallastStiffness { sleeper, factor } => {
+                    on_track(*sleeper)?;
+                    positive(&key("factor"), *factor)?;
+                }
+                Effect::RailDip {
+                    position_m,
+                    length_m,
+                    depth_mm,
+                } => {
+                    finite(&key("position_m"), *position_m)?;
+                    positive(&key("length_m"), *length_m)?;
+                    finite(&key("depth_mm"), *depth_mm)?;
+                }
+                Effect::RailIrregularity {
+                    wavelength_m,
+                    amplitude_mm,
+                    phase_deg,
+                } => {
+                    positive(&key("wavelength_m"), *wavelength_m)?;
+                    finite(&key("amplitude_mm"), *amplitude_mm)?;
+                    finite(&key("phase_deg"), *phase_deg)?;
+                }
+                Effect::WheelOutOfRound {
+                    order,
+                    amplitude_mm,
+                    phase_deg,
+                    ..
+                } => {
+                    positive(&key("order"), *order as f64)?;
+                    finite(&key("amplitude_mm"), *amplitude_mm)?;
+                    finite(&key("phase_deg"), *phase_deg)?;
+                }
+                Effect::TimeOffset { offset_ms } => finite(&key("offset_ms"), *offset_ms)?,
+                Effect::CarBodyBounce {
+                    amplitude,
+                    frequency_hz,
+                    phase_deg,
+                } => {
+                    non_negative(&key("amplitude"), *amplitude)?;
+                    if *amplitude >= 1.0 {
+                        return Err(invalid(&key("amplitude"), amplitude, "below 1"));
+                    }
+                    positive(&key("frequency_hz"), *frequency_hz)?;
+                    finite(&key("phase_deg"), *phase_deg)?;
+                }
+                Effect::SpeedDeviation { fraction } => {
+                    finite(&key("fraction"), *fraction)?;
+                    if fraction.abs() >= 0.5 {
+                        return Err(invalid(&key("fraction"), fraction, "|fraction| < 0.5"));
+                    }
+                }
+                Effect::SensorGain { sensor, factor } => {
+                    if !self.sensors.pad.iter().any(|p| &p.name == sensor) {
+                        return Err(invalid(
+                            &key("sensor"),
+                            sensor,
+                            "one of the calibration's sensors",
+                        ));
+                    }
+                    positive(&key("factor"), *factor)?;
+                }
+            }
+        }
+        let id = &self.identification;
+        if !(id.phi > 0.0 && id.phi < 1.0) {
+            return Err(invalid("identification.phi", id.phi, "must lie in (0, 1)"));
+        }
+        if id.pips_per_series < 3 {
+            return Err(invalid(
+                "identification.pips_per_series",
+                id.pips_per_series,
+                "at least 3",
+            ));
+        }
+        if !["vertical", "perpendicular", "euclidean"].contains(&id.pip_distance.as_str()) {
+            return Err(invalid(
+                "identification.pip_distance",
+                format!("{:?}", id.pip_distance),
+                "one of \"vertical\", \"perpendicular\", \"euclidean\"",
+            ));
+        }
+        non_negative("identification.alpha_fraction", id.alpha_fraction)?;
+        non_negative("identification.bank_resolution", id.bank_resolution)?;
+
+        if id.monte_carlo_samples < 1000 {
+            return Err(invalid(
+                "identification.monte_carlo_samples",
+                id.monte_carlo_samples,
+                "at least 1000",
+            ));
+        }
+        non_negative("identification.urgent_l0_mm", id.urgent_l0_mm)?;
+        non_negative("identification.inspect_l0_mm", id.inspect_l0_mm)?;
+        for (i, u) in id.uncertainty.iter().enumerate() {
+            finite(&format!("identification.uncertainty[{i}].min"), u.min)?;
+            finite(&format!("identification.uncertainty[{i}].max"), u.max)?;
+            if u.min > u.max {
+                return Err(invalid(
+                    &format!("identification.uncertainty[{i}]"),
+                    format!("[{}, {}]", u.min, u.max),
+                    "min exceeds max",
+                ));
+            }
+        }
+
+        let checked = CheckedCalibration(self);
+        // Windows: each must start at t >= 0 and end while the leading wheel is still on the rail.
+        let rate = checked.output.sample_rate_hz;
+        let half = checked.output.window_samples / 2;
+        let centre_start_m = checked.run.leading_wheel_start_m - checked.vehicle.half_wheelbase_m;
+        for i in 0..checked.sensors.pad.len() {
+            let t_centre =
+                (checked.sensor_position_m(i) - centre_start_m) / checked.speed_m_per_s();
+            if (t_centre * rate).round() < half as f64 {
+                return Err(invalid(
+                    "output.window_samples",
+                    checked.output.window_samples,
+                    &format!(
+                        "the window of sensor `{}` would start before t = 0; shorten the window or start the train further back",
+                        checked.sensors.pad[i].name
+                    ),
+                ));
+            }
+        }
+        let t_end = checked.end_sample() as f64 / rate;
+        let lead_end = checked.run.leading_wheel_start_m + checked.speed_m_per_s() * t_end;
+        if lead_end >= rail_m {
+            return Err(invalid(
+                "output.window_samples",
+                checked.output.window_samples,
+                &format!(
+                    "at the end of the last window (t = {t_end:.3} s) the leading wheel would be at {lead_end:.2} m, past the rail end at {rail_m} m"
+                ),
+            ));
+        }
+        Ok(checked)
+    }
+}
+
+fn invalid(key: &str, value: impl std::fmt::Display, reason: &str) -> CalibrationError {
+    CalibrationError::Invalid {
+        key: key.to_string(),
+        value: value.to_string(),
+        reason: reason.to_string(),
+    }
+}
+
+fn finite(key: &str, v: f64) -> Result<(), CalibrationError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(invalid(key, v, "must be a finite number"))
+    }
+}
+
+fn positive(key: &str, v: f64) -> Result<(), CalibrationError> {
+    finite(key, v)?;
+    if v > 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(key, v, "must be positive"))
+    }
+}
+
+fn non_negative(key: &str, v: f64) -> Result<(), CalibrationError> {
+    finite(key, v)?;
+    if v >= 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(key, v, "must not be negative"))
+    }
+}
+
+fn at_most(key: &str, v: f64, max: f64) -> Result<(), CalibrationError> {
+    if v <= max {
+        Ok(())
+    } else {
+        Err(invalid(key, v, &format!("must be at most {max}")))
+    }
+}
+
+/// A `[lo, hi]` range with `lo <= hi` and `lo > floor`.
+fn range(key: &str, r: [f64; 2], floor: f64) -> Result<(), CalibrationError> {
+    finite(key, r[0])?;
+    finite(key, r[1])?;
+    if r[0] <= floor {
+        return Err(invalid(
+            key,
+            format!("{:?}", r),
+            &format!("the lower bound must exceed {floor}"),
+        ));
+    }
+    if r[0] > r[1] {
+        return Err(invalid(
+            key,
+            format!("{:?}", r),
+            "the lower bound exceeds the upper bound",
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn negative_mass_is_rejected_naming_key_and_value() {
+        let mut c = Calibration::default();
+        c.vehicle.wheel_mass_kg = -650.0;
+        let msg = c.check().unwrap_err().to_string();
+        assert!(msg.contains("vehicle.wheel_mass_kg"), "{msg}");
+        assert!(msg.contains("-650"), "{msg}");
+    }
+
+    #[test]
+    fn sensor_outside_the_rail_is_rejected() {
+        let mut c = Calibration::default();
+        c.sensors.pad[0].sleeper = 40;
+        let msg = c.check().unwrap_err().to_string();
+        assert!(
+            msg.contains("sensors.pad[0].sleeper") && msg.contains("40"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn window_past_the_rail_end_is_rejected() {
+        let mut c = Calibration::default();
+        c.output.window_samples = 20_000;
+        assert!(c
+            .check()
+            .unwrap_err()
+            .to_string()
+            .contains("output.window_samples"));
+    }
+}

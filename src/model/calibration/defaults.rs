@@ -1,0 +1,167 @@
+//! The default calibration (the model's reference vehicle and track, the paper's population
+//! and uncertainty table) and the named profiles built from it.
+
+use super::{
+    Calibration, ContactParams, IdentificationParams, IntegrationParams, OutputParams, PadSensor,
+    PopulationParams, RunParams, SensorParams, TrackParams, UncertaintyGroup, UncertaintyKind,
+    UncertaintySource, VehicleParams, WheelPosition,
+};
+
+impl Default for IdentificationParams {
+    fn default() -> Self {
+        use UncertaintyGroup::{Measurement, Model};
+        use UncertaintyKind::{AbsoluteKn, Relative};
+        let src = |group, name: &str, kind, min, max| UncertaintySource {
+            group,
+            name: name.to_string(),
+            kind,
+            min,
+            max,
+        };
+        IdentificationParams {
+            phi: 0.95,
+            pips_per_series: 30,
+            pip_distance: "vertical".into(),
+            alpha_fraction: 0.01,
+            monte_carlo_samples: 20_000,
+            random_subsets: 2000,
+            seed: 1,
+            bank_resolution: 0.5,
+            urgent_l0_mm: 40.0,
+            inspect_l0_mm: 25.0,
+            uncertainty: vec![
+                src(Model, "train system", Relative, -0.15, 0.05),
+                src(Model, "finite element model", Relative, -0.08, 0.05),
+                src(Model, "mesh refinement", Relative, -0.03, 0.03),
+                src(Model, "additional", Relative, -0.01, 0.01),
+                src(Model, "track calibration", Relative, -0.05, 0.05),
+                src(Measurement, "sensor accuracy", Relative, -0.05, 0.05),
+                src(Measurement, "environment noise", AbsoluteKn, -1.0, 1.0),
+                src(Measurement, "sensor resolution", AbsoluteKn, -0.05, 0.05),
+                src(Measurement, "additional", Relative, -0.02, 0.02),
+            ],
+        }
+    }
+}
+
+impl Default for Calibration {
+    /// The docs/model.md defaults (metro vehicle, ballasted track with timber sleepers).
+    fn default() -> Self {
+        let pad = [
+            ("rps1", 19),
+            ("rps2", 18),
+            ("rps3", 17),
+            ("rps4", 16),
+            ("rps5", 15),
+        ]
+        .into_iter()
+        .map(|(name, sleeper)| PadSensor {
+            name: name.to_string(),
+            sleeper,
+        })
+        .collect();
+        Calibration {
+            track: TrackParams {
+                bays: 34,
+                sleeper_spacing_m: 0.7,
+                youngs_modulus_pa: 210e9,
+                shear_modulus_pa: 81e9,
+                rail_area_m2: 6.977e-3,
+                rail_second_moment_m4: 2.346e-5,
+                shear_coefficient: 0.40,
+                rail_density_kg_per_m3: 7850.0,
+                pad_stiffness_n_per_m: 150e6,
+                pad_damping_ns_per_m: 30e3,
+                sleeper_mass_kg: 45.0,
+                ballast_stiffness_n_per_m: 60e6,
+                ballast_damping_ns_per_m: 50e3,
+            },
+            vehicle: VehicleParams {
+                bogie_mass_kg: 1300.0,
+                bogie_pitch_inertia_kg_m2: 800.0,
+                wheel_mass_kg: 650.0,
+                primary_stiffness_n_per_m: 1.2e6,
+                primary_damping_ns_per_m: 12e3,
+                half_wheelbase_m: 1.25,
+                car_body_mass_kg: 7500.0,
+                wheel_radius_m: 0.400,
+                gravity_m_per_s2: 9.81,
+                flat_wheel: WheelPosition::Trailing,
+            },
+            contact: ContactParams {
+                hertz_constant_n_per_m1_5: None,
+            },
+            run: RunParams {
+                speed_km_per_h: 50.0,
+                leading_wheel_start_m: 6.0,
+            },
+            sensors: SensorParams {
+                laser_trigger_m: 14.2,
+                pad,
+            },
+            output: OutputParams {
+                sample_rate_hz: 2500.0,
+                window_samples: 1000,
+            },
+            integration: IntegrationParams {
+                elements_per_bay: 4,
+                coarse_steps_per_sample: 1,
+                fine_steps_per_coarse: 10,
+                fine_before_strike_s: 0.001,
+                fine_after_strike_s: 0.010,
+            },
+            population: PopulationParams {
+                length_mm: [10.0, 200.0],
+                depth_mm: [0.1, 1.0],
+                curvature_mm: [0.0, 0.5],
+                impact_position_m: [12.0, 13.0],
+                flat_wheels: None,
+            },
+            effects: Vec::new(),
+            identification: IdentificationParams::default(),
+        }
+    }
+}
+
+impl Calibration {
+    /// The CI-sized profile of the tests and the diagnosis suite: narrower flat ranges, so
+    /// that 2,000 instances cover them about as densely as 50,000 cover the paper's, and
+    /// 600-sample windows.
+    pub fn narrow_profile() -> Calibration {
+        let mut c = Calibration::default();
+        c.output.window_samples = 600;
+        c.population.length_mm = [40.0, 80.0];
+        c.population.depth_mm = [0.3, 0.6];
+        c.population.curvature_mm = [0.0, 0.1];
+        c.population.impact_position_m = [12.3, 12.5];
+        c
+    }
+
+    /// The train profile: the defaults with a population for whole-train monitoring, where a
+    /// flat may be on either wheel of a bogie and strike anywhere along a revolution: both
+    /// wheels, X_p over one circumference `2πR_w` from 12 m.
+    pub fn train_profile() -> Calibration {
+        let mut c = Calibration::default();
+        let start = c.population.impact_position_m[0];
+        c.population.impact_position_m = [
+            start,
+            start + std::f64::consts::TAU * c.vehicle.wheel_radius_m,
+        ];
+        c.population.flat_wheels = Some(vec![WheelPosition::Leading, WheelPosition::Trailing]);
+        c
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_pass_and_round_trip_through_toml() {
+        let c = Calibration::default();
+        let text = c.to_toml_string();
+        let back = Calibration::from_toml_str(&text).unwrap();
+        assert_eq!(back, c);
+        back.check().unwrap();
+    }
+}

@@ -1,0 +1,103 @@
+//! The whole-train result for people and spreadsheets: the wheel table as CSV, as text and
+//! as a self-contained HTML page ([`crate::train`] computes, this module renders).
+
+use super::canvas::escape_html;
+use crate::train::TrainResult;
+
+/// The table as CSV.
+pub fn table_csv(r: &TrainResult) -> String {
+    let mut s = String::from("car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity\n");
+    for w in &r.wheels {
+        let (lo, hi) = w.l0_mm.map_or((String::new(), String::new()), |[a, b]| {
+            (format!("{a:.1}"), format!("{b:.1}"))
+        });
+        s += &format!(
+            "{},{},{},{},{lo},{hi},{},{}\n",
+            w.car,
+            w.bogie,
+            w.wheel.name(),
+            w.flat,
+            w.cms_count,
+            w.severity
+        );
+    }
+    s
+}
+
+/// The table for people.
+pub fn table_text(r: &TrainResult) -> String {
+    let mut s = format!(
+        "{:<4} {:<6} {:<9} {:<8} {:<16} {:>7}  {}\n",
+        "car", "bogie", "wheel", "flat", "L0 (mm)", "CMS", "severity"
+    );
+    for w in &r.wheels {
+        let l0 = w
+            .l0_mm
+            .map_or("—".to_string(), |[a, b]| format!("[{a:.0}, {b:.0}]"));
+        s += &format!(
+            "{:<4} {:<6} {:<9} {:<8} {:<16} {:>7}  {}\n",
+            w.car,
+            w.bogie,
+            w.wheel.name(),
+            w.flat,
+            l0,
+            w.cms_count,
+            w.severity
+        );
+    }
+    s
+}
+
+/// The HTML section (a self-contained page).
+pub fn table_html(r: &TrainResult) -> String {
+    let esc = escape_html;
+    let mut h = String::from(
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>wheelflat: train</title>\n<style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}td,th{border:1px solid #bbb;padding:4px 8px}td.num{text-align:right}.urgent{background:#f8d0d0}.inspect{background:#fbe7c0}.monitor{background:#e8f0d8}</style></head><body>\n",
+    );
+    h += &format!(
+        "<h1>Whole-train identification</h1>\n<p>Recording <code>{}</code>, bank <code>{}</code>, {} bogies in {:.0} ms.</p>\n<h2>Wheels</h2>\n<table><thead><tr><th>car</th><th>bogie</th><th>wheel</th><th>flat</th><th>L0 (mm)</th><th>CMS</th><th>severity</th></tr></thead><tbody>\n",
+        esc(&r.recording),
+        esc(&r.bank_id),
+        r.bogies.len(),
+        r.total_ms
+    );
+    for w in &r.wheels {
+        let l0 = w
+            .l0_mm
+            .map_or("—".to_string(), |[a, b]| format!("[{a:.0}, {b:.0}]"));
+        h += &format!(
+            "<tr class=\"{}\"><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td><td>{}</td><td>{l0}</td><td class=\"num\">{}</td><td>{}</td></tr>\n",
+            esc(w.severity.as_str()),
+            w.car,
+            w.bogie,
+            w.wheel.name(),
+            esc(&w.flat),
+            w.cms_count,
+            esc(w.severity.as_str())
+        );
+    }
+    h += &format!(
+        "</tbody></table>\n<p>Severity rule: {}.</p>\n",
+        esc(&r.severity_rule)
+    );
+    for w in &r.warnings {
+        h += &format!("<p><strong>Warning:</strong> {}</p>\n", esc(w));
+    }
+    h += "<h2>Bogies</h2>\n<ul>\n";
+    for b in &r.bogies {
+        let text = match &b.identification {
+            None => format!(
+                "good-wheel check passes at all {} PIPs (closest {:.2} kN inside)",
+                b.flat_free.points,
+                -b.flat_free.worst.as_ref().map_or(0.0, |w| w.4)
+            ),
+            Some(id) => format!(
+                "good-wheel check fails at {} of {} PIPs; {}",
+                b.flat_free.outside, b.flat_free.points, id.summary
+            ),
+        };
+        h += &format!("<li>bogie {}: {}</li>\n", b.bogie, esc(&text));
+    }
+    h += "</ul>\n</body></html>\n";
+    h
+}
