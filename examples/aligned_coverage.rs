@@ -5,8 +5,19 @@ use wheelflat::bank::Bank;
 use wheelflat::identify::aligned::{AlignedPoints, AlignedSettings};
 use wheelflat::identify::{coverage, synth::synthesize, Identifier, Measurement};
 
+/// (truth inside, L0 range, severity class) of one method's answer.
+type Judged = (bool, [f64; 2], usize);
+/// (true L0, true class, bank-only, aligned, stage time in ms) of one case.
+type Row = (f64, usize, Judged, Judged, f64);
+
 fn class(l0: f64, inspect: f64, urgent: f64) -> usize {
-    if l0 >= urgent { 2 } else if l0 >= inspect { 1 } else { 0 }
+    if l0 >= urgent {
+        2
+    } else if l0 >= inspect {
+        1
+    } else {
+        0
+    }
 }
 
 fn main() {
@@ -16,11 +27,28 @@ fn main() {
     let seed: u64 = a[3].parse().unwrap();
     let finer = a.get(4).is_some_and(|s| s == "finer");
     let mut st = AlignedSettings::default();
-    if let Some(v) = a.get(5) { st.reach_m = v.parse::<f64>().unwrap() * 1e-3; }
-    if let Some(v) = a.get(6) { st.kappa = v.parse().unwrap(); }
-    if let Some(v) = a.get(7) { st.shift_error_per_mm = v.parse().unwrap(); }
-    let emu = std::env::var("EMU").ok().map(|v| { let mut e = wheelflat::identify::emulator::EmulatorSettings::default(); let f: Vec<f64> = v.split(',').map(|x| x.parse().unwrap()).collect(); e.kappa_error = f[0]; e.depth = f[1] as u32; e.shift_error_per_mm = st.shift_error_per_mm; e });
-    let which = if a.get(8).is_some_and(|s| s == "all") { AlignedPoints::AllPips } else { AlignedPoints::Eip };
+    if let Some(v) = a.get(5) {
+        st.reach_m = v.parse::<f64>().unwrap() * 1e-3;
+    }
+    if let Some(v) = a.get(6) {
+        st.kappa = v.parse().unwrap();
+    }
+    if let Some(v) = a.get(7) {
+        st.shift_error_per_mm = v.parse().unwrap();
+    }
+    let emu = std::env::var("EMU").ok().map(|v| {
+        let mut e = wheelflat::identify::emulator::EmulatorSettings::default();
+        let f: Vec<f64> = v.split(',').map(|x| x.parse().unwrap()).collect();
+        e.kappa_error = f[0];
+        e.depth = f[1] as u32;
+        e.shift_error_per_mm = st.shift_error_per_mm;
+        e
+    });
+    let which = if a.get(8).is_some_and(|s| s == "all") {
+        AlignedPoints::AllPips
+    } else {
+        AlignedPoints::Eip
+    };
     let cal = bank.metadata().calibration.clone().check().unwrap();
     let meas_cal = if finer {
         let mut d = cal.document().clone();
@@ -33,20 +61,36 @@ fn main() {
     let id = Identifier::new(bank, cal.identification.clone()).unwrap();
     let t0 = std::time::Instant::now();
     let cells = id.aligned_cells(st.reach_m);
-    eprintln!("aligned cells in {:.0} ms, max shift {}, max offset {}", t0.elapsed().as_secs_f64() * 1e3, cells.max_shift, cells.max_offset());
-    let (insp, urg) = (cal.identification.inspect_l0_mm, cal.identification.urgent_l0_mm);
+    eprintln!(
+        "aligned cells in {:.0} ms, max shift {}, max offset {}",
+        t0.elapsed().as_secs_f64() * 1e3,
+        cells.max_shift,
+        cells.max_offset()
+    );
+    let (insp, urg) = (
+        cal.identification.inspect_l0_mm,
+        cal.identification.urgent_l0_mm,
+    );
     let top = (8.0 * cal.population.depth_mm[1] * cal.vehicle.wheel_radius_m * 1e3).sqrt();
-    let mut rows = Vec::new();
+    let mut rows: Vec<Row> = Vec::new();
     for (case, flat) in coverage::truths(&cal, cases, seed).iter().enumerate() {
         let syn = synthesize(&meas_cal, flat, seed.wrapping_add(case as u64), true).unwrap();
-        let m = Measurement::from_csv(Path::new("case.csv"), &syn.csv, cal.output.sample_rate_hz).unwrap();
-        let out = id.identify_aligned(&m, None, &cells, &st, which, emu.as_ref()).unwrap();
+        let m = Measurement::from_csv(Path::new("case.csv"), &syn.csv, cal.output.sample_rate_hz)
+            .unwrap();
+        let out = id
+            .identify_aligned(&m, None, &cells, &st, which, emu.as_ref())
+            .unwrap();
         let t = &syn.truth;
         let inside = |r: &wheelflat::identify::result::ParamRanges, full: bool| {
-            let ld = r.length_mm[0] <= t.length_mm && t.length_mm <= r.length_mm[1]
-                && r.depth_mm[0] <= t.depth_mm && t.depth_mm <= r.depth_mm[1];
-            ld && (!full || (r.curvature_mm[0] <= t.curvature_mm && t.curvature_mm <= r.curvature_mm[1]
-                && r.impact_position_m[0] <= t.impact_position_m && t.impact_position_m <= r.impact_position_m[1]))
+            let ld = r.length_mm[0] <= t.length_mm
+                && t.length_mm <= r.length_mm[1]
+                && r.depth_mm[0] <= t.depth_mm
+                && t.depth_mm <= r.depth_mm[1];
+            ld && (!full
+                || (r.curvature_mm[0] <= t.curvature_mm
+                    && t.curvature_mm <= r.curvature_mm[1]
+                    && r.impact_position_m[0] <= t.impact_position_m
+                    && t.impact_position_m <= r.impact_position_m[1]))
         };
         let truth_class = class(t.l0_mm, insp, urg);
         let judge = |r: Option<&wheelflat::identify::result::ParamRanges>, full: bool| match r {
@@ -54,7 +98,10 @@ fn main() {
             None => (false, [f64::NAN, f64::NAN], 2),
         };
         let b = judge(out.base.falsifications[0].ranges.as_ref(), false);
-        let n = match &out.emulated { Some((_, r)) => judge(r.as_ref(), true), None => judge(out.ranges.as_ref(), true) };
+        let n = match &out.emulated {
+            Some((_, r)) => judge(r.as_ref(), true),
+            None => judge(out.ranges.as_ref(), true),
+        };
         println!(
             "{case:>3} L {:6.1} d {:.3} c {:.3} X {:.3} L0 {:5.1} | base {:>5} {} [{:5.1},{:5.1}] | aligned {:>5} {} [{:5.1},{:5.1}] cls {}/{} | {} pts {} cols read {:.1} ms fals {:.1} ms",
             t.length_mm, t.depth_mm, t.curvature_mm, t.impact_position_m, t.l0_mm,
@@ -62,16 +109,27 @@ fn main() {
             out.survivors.len(), n.0 as u8, n.1[0], n.1[1], n.2, truth_class,
             out.points, out.columns, out.read_ms, out.falsify_ms
         );
-        rows.push((t.l0_mm, truth_class, b, n, out.read_ms + out.falsify_ms + out.emulator_ms));
+        rows.push((
+            t.l0_mm,
+            truth_class,
+            b,
+            n,
+            out.read_ms + out.falsify_ms + out.emulator_ms,
+        ));
     }
     let k = rows.len() as f64;
     for (name, pick) in [("bank-only (kappa cells)", 0usize), ("aligned", 1)] {
-        let get = |r: &(f64, usize, (bool, [f64; 2], usize), (bool, [f64; 2], usize), f64)| if pick == 0 { r.2 } else { r.3 };
+        let get = |r: &Row| if pick == 0 { r.2 } else { r.3 };
         let cov = rows.iter().filter(|r| get(r).0).count() as f64 / k;
-        let mut w: Vec<f64> = rows.iter().map(|r| get(r).1[1] - get(r).1[0]).filter(|w| w.is_finite()).collect();
+        let mut w: Vec<f64> = rows
+            .iter()
+            .map(|r| get(r).1[1] - get(r).1[0])
+            .filter(|w| w.is_finite())
+            .collect();
         w.sort_by(f64::total_cmp);
         let under: Vec<_> = rows.iter().filter(|r| r.0 < 50.0).collect();
-        let below_top = under.iter().filter(|r| get(r).1[1] < top - 0.05).count() as f64 / under.len().max(1) as f64;
+        let below_top = under.iter().filter(|r| get(r).1[1] < top - 0.05).count() as f64
+            / under.len().max(1) as f64;
         let right = rows.iter().filter(|r| get(r).2 == r.1).count() as f64 / k;
         let unsafe_ = rows.iter().filter(|r| get(r).2 < r.1).count();
         println!(
@@ -81,5 +139,8 @@ fn main() {
     }
     let mut t: Vec<f64> = rows.iter().map(|r| r.4).collect();
     t.sort_by(f64::total_cmp);
-    println!("aligned stage (read + falsify) median {:.1} ms", t[t.len() / 2]);
+    println!(
+        "aligned stage (read + falsify) median {:.1} ms",
+        t[t.len() / 2]
+    );
 }

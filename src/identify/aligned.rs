@@ -104,7 +104,9 @@ impl AlignedCells {
                     }
                     let dphi = (phase[i] - phase[j]).abs();
                     let dphi = dphi.min(1.0 - dphi);
-                    let d2 = (0..3).map(|t| (unit[i][t] - unit[j][t]).powi(2)).sum::<f64>()
+                    let d2 = (0..3)
+                        .map(|t| (unit[i][t] - unit[j][t]).powi(2))
+                        .sum::<f64>()
                         + dphi * dphi;
                     if best.len() < k || d2 < best[k - 1].0 {
                         let at = best.partition_point(|b| (b.0, b.1) < (d2, j as u32));
@@ -169,7 +171,11 @@ impl AlignedCells {
 
     /// The largest |m_ij|.
     pub fn max_offset(&self) -> i32 {
-        self.offsets.iter().map(|m| (*m as i32).abs()).max().unwrap_or(0)
+        self.offsets
+            .iter()
+            .map(|m| (*m as i32).abs())
+            .max()
+            .unwrap_or(0)
     }
 }
 
@@ -266,39 +272,65 @@ pub fn falsify_aligned(
         .collect()
 }
 
+/// The ranges reported for physical bounds `[lo, hi]` of L, d, c (mm) and X_p (m), clamped to
+/// the population, with L0 from the depth bounds.
+pub fn bounds_to_ranges(
+    b: [[f64; 2]; 4],
+    pop: &PopulationParams,
+    wheel_radius_m: f64,
+    wheels: Vec<crate::model::WheelPosition>,
+) -> ParamRanges {
+    let clamp = |v: [f64; 2], c: [f64; 2]| [v[0].max(c[0]), v[1].min(c[1])];
+    let depth_mm = clamp(b[1], pop.depth_mm);
+    let l0 = |d: f64| crate::model::Flat::fresh_length_mm(d, wheel_radius_m);
+    ParamRanges {
+        length_mm: clamp(b[0], pop.length_mm),
+        depth_mm,
+        curvature_mm: clamp(b[2], pop.curvature_mm),
+        impact_position_m: b[3],
+        l0_mm: [l0(depth_mm[0]), l0(depth_mm[1])],
+        flat_wheels: wheels,
+    }
+}
+
+/// The union of bounds.
+pub fn union(all: impl Iterator<Item = [[f64; 2]; 4]>) -> Option<[[f64; 2]; 4]> {
+    all.reduce(|k, b| std::array::from_fn(|t| [k[t][0].min(b[t][0]), k[t][1].max(b[t][1])]))
+}
+
 impl Identifier {
     /// The parameter ranges of aligned survivors: the union of their (L, d, c) cells and of
     /// the impact positions of their passing shifts (± half a step).
-    pub fn aligned_ranges(&self, cells: &AlignedCells, survivors: &[Survivor]) -> Option<ParamRanges> {
-        let first = survivors.first()?;
+    pub fn aligned_ranges(
+        &self,
+        cells: &AlignedCells,
+        survivors: &[Survivor],
+    ) -> Option<ParamRanges> {
         let cal = &self.bank().metadata().calibration;
-        let pop = &cal.population;
         let p = &self.params;
-        let mut r = [[f64::MAX, f64::MIN]; 4];
-        for s in survivors {
+        let b = union(survivors.iter().map(|s| {
             let i = s.row as usize;
             let h = cells.half_extent(i);
             let v = [p.length_mm[i], p.depth_mm[i], p.curvature_mm[i]];
-            for t in 0..3 {
-                r[t][0] = r[t][0].min(v[t] - h[t]);
-                r[t][1] = r[t][1].max(v[t] + h[t]);
-            }
             let x = p.impact_position_m[i];
-            r[3][0] = r[3][0].min(x + (s.n_min as f64 - 0.5) * cells.step_m);
-            r[3][1] = r[3][1].max(x + (s.n_max as f64 + 0.5) * cells.step_m);
-        }
-        let _ = first;
-        let clamp = |v: [f64; 2], c: [f64; 2]| [v[0].max(c[0]), v[1].min(c[1])];
-        let depth_mm = clamp(r[1], pop.depth_mm);
-        let l0 = |d: f64| (8.0 * d * cal.vehicle.wheel_radius_m * 1e3).sqrt();
-        Some(ParamRanges {
-            length_mm: clamp(r[0], pop.length_mm),
-            depth_mm,
-            curvature_mm: clamp(r[2], pop.curvature_mm),
-            impact_position_m: r[3],
-            l0_mm: [l0(depth_mm[0]), l0(depth_mm[1])],
-            flat_wheels: super::wheels_of(survivors.iter().map(|s| p.flat_wheel[s.row as usize])),
-        })
+            [
+                [v[0] - h[0], v[0] + h[0]],
+                [v[1] - h[1], v[1] + h[1]],
+                [v[2] - h[2], v[2] + h[2]],
+                [
+                    x + (s.n_min as f64 - 0.5) * cells.step_m,
+                    x + (s.n_max as f64 + 0.5) * cells.step_m,
+                ],
+            ]
+        }))?;
+        let wheels =
+            super::ranges::wheels_of(survivors.iter().map(|s| p.flat_wheel[s.row as usize]));
+        Some(bounds_to_ranges(
+            b,
+            &cal.population,
+            cal.vehicle.wheel_radius_m,
+            wheels,
+        ))
     }
 }
 
@@ -329,7 +361,7 @@ pub struct AlignedOutcome {
     /// Time of the falsification (ms).
     pub falsify_ms: f64,
     /// The emulator stage, when asked for: kept bounds per instance and their union.
-    pub emulated: Option<(Vec<(u32, super::emulator::Bounds)>, Option<ParamRanges>)>,
+    pub emulated: Option<super::emulator::Emulated>,
     /// Time of the emulator stage (ms).
     pub emulator_ms: f64,
 }
@@ -350,7 +382,12 @@ impl Identifier {
         let axes: Vec<usize> = base
             .series
             .iter()
-            .map(|s| meta.sensors.iter().position(|a| a.name == s.sensor).unwrap_or(0))
+            .map(|s| {
+                meta.sensors
+                    .iter()
+                    .position(|a| a.name == s.sensor)
+                    .unwrap_or(0)
+            })
             .collect();
         let chosen: Vec<usize> = match which {
             AlignedPoints::Eip => base.eip.clone(),
@@ -403,27 +440,20 @@ impl Identifier {
         let clock = std::time::Instant::now();
         let emulated = emu.map(|e| {
             let cal = &meta.calibration;
-            let kept = super::emulator::refine(&points, cells, &self.params, &cal.population, &survivors, e);
-            let ranges = kept.first().map(|_| {
-                let mut r = [[f64::MAX, f64::MIN]; 4];
-                for (_, b) in &kept {
-                    for t in 0..4 {
-                        r[t][0] = r[t][0].min(b[t][0]);
-                        r[t][1] = r[t][1].max(b[t][1]);
-                    }
-                }
-                let clamp = |v: [f64; 2], c: [f64; 2]| [v[0].max(c[0]), v[1].min(c[1])];
-                let depth_mm = clamp(r[1], cal.population.depth_mm);
-                let l0 = |d: f64| (8.0 * d * cal.vehicle.wheel_radius_m * 1e3).sqrt();
-                ParamRanges {
-                    length_mm: clamp(r[0], cal.population.length_mm),
-                    depth_mm,
-                    curvature_mm: clamp(r[2], cal.population.curvature_mm),
-                    impact_position_m: r[3],
-                    l0_mm: [l0(depth_mm[0]), l0(depth_mm[1])],
-                    flat_wheels: super::wheels_of(kept.iter().map(|(k, _)| self.params.flat_wheel[*k as usize])),
-                }
-            });
+            let kept = super::emulator::refine(
+                &points,
+                cells,
+                &self.params,
+                &cal.population,
+                &survivors,
+                e,
+            );
+            let wheels = super::ranges::wheels_of(
+                kept.iter()
+                    .map(|(k, _)| self.params.flat_wheel[*k as usize]),
+            );
+            let ranges = union(kept.iter().map(|(_, b)| *b))
+                .map(|b| bounds_to_ranges(b, &cal.population, cal.vehicle.wheel_radius_m, wheels));
             (kept, ranges)
         });
         let emulator_ms = clock.elapsed().as_secs_f64() * 1e3;

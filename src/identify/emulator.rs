@@ -41,6 +41,9 @@ impl Default for EmulatorSettings {
 /// The physical bounds `[lo, hi]` of L, d, c (mm) and X_p (m) that an instance keeps.
 pub type Bounds = [[f64; 2]; 4];
 
+/// The emulator stage's answer: the kept bounds of each instance and their union.
+pub type Emulated = (Vec<(u32, Bounds)>, Option<super::result::ParamRanges>);
+
 /// Per point: the linear model `r_i + a·u` and its error bound.
 struct Local {
     base: f64,
@@ -164,18 +167,24 @@ pub fn refine(
                 for (c, h) in &boxes {
                     let x0 = ti[3] + n as f64 * cells.step_m;
                     let b: Bounds = [
-                        [ti[0] + (c[0] - h[0]) * scale[0], ti[0] + (c[0] + h[0]) * scale[0]],
-                        [ti[1] + (c[1] - h[1]) * scale[1], ti[1] + (c[1] + h[1]) * scale[1]],
-                        [ti[2] + (c[2] - h[2]) * scale[2], ti[2] + (c[2] + h[2]) * scale[2]],
+                        [
+                            ti[0] + (c[0] - h[0]) * scale[0],
+                            ti[0] + (c[0] + h[0]) * scale[0],
+                        ],
+                        [
+                            ti[1] + (c[1] - h[1]) * scale[1],
+                            ti[1] + (c[1] + h[1]) * scale[1],
+                        ],
+                        [
+                            ti[2] + (c[2] - h[2]) * scale[2],
+                            ti[2] + (c[2] + h[2]) * scale[2],
+                        ],
                         [
                             x0 + (c[3] - h[3]) * cells.step_m,
                             x0 + (c[3] + h[3]) * cells.step_m,
                         ],
                     ];
-                    kept = Some(match kept {
-                        None => b,
-                        Some(k) => std::array::from_fn(|t| [k[t][0].min(b[t][0]), k[t][1].max(b[t][1])]),
-                    });
+                    kept = super::aligned::union(kept.into_iter().chain([b]));
                 }
             }
             kept.map(|b| (s.row, b))

@@ -7,8 +7,8 @@
 
 pub mod aligned;
 pub mod cells;
-pub mod emulator;
 pub mod coverage;
+pub mod emulator;
 pub mod entropy;
 pub mod falsify;
 pub mod measurement;
