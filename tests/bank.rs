@@ -124,6 +124,37 @@ fn interrupted_run_resumes_and_ends_byte_identical() {
     );
 }
 
+/// Regression: a shard file of the same bank id but other metadata (here written with another
+/// `[identification]`, which changes the stored calibration and its checksum but not the id)
+/// was kept on resume, so one bank's shards could disagree in their metadata.
+#[test]
+fn resume_simulates_again_a_shard_written_with_other_metadata() {
+    let cal = bank_calibration();
+    let opts = options(45, 15);
+    let whole = tempfile::tempdir().unwrap();
+    generate_with_threads(&cal, whole.path(), &opts, 2);
+
+    let mut doc = cal.document().clone();
+    doc.identification.phi = 0.9;
+    let other = doc.check().unwrap();
+    let resumed = tempfile::tempdir().unwrap();
+    let first = GenerateOptions {
+        machine_shard: Some((0, 3)),
+        ..opts.clone()
+    };
+    generate_with_threads(&other, resumed.path(), &first, 2);
+    match generate_with_threads(&cal, resumed.path(), &opts, 2) {
+        Outcome::Complete {
+            simulated, resumed, ..
+        } => assert_eq!((simulated, resumed), (45, 0)),
+        o => panic!("{o:?}"),
+    }
+    assert!(
+        files(whole.path(), &[]) == files(resumed.path(), &[]),
+        "resumed bank differs"
+    );
+}
+
 #[test]
 fn union_of_shards_equals_a_single_run_and_merge_names_missing_files() {
     let cal = bank_calibration();

@@ -217,7 +217,7 @@ pub fn generate(
     for &f in &files {
         let path = version.join(shard_file_name(f, count));
         let info = shard_info(f);
-        if path.is_file() && shard_matches(&path, &id, &info).is_ok() {
+        if path.is_file() && shard_matches(&path, &base_meta, &info).is_ok() {
             resumed += info.rows;
         } else {
             missing.push(f);

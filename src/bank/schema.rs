@@ -279,11 +279,20 @@ pub(crate) fn open_shard(
     Ok((bytes, meta, bank_meta))
 }
 
-/// Checks that a complete shard file belongs to bank `id` and holds `info` (used on resume).
-pub(crate) fn shard_matches(path: &Path, id: &str, info: &ShardInfo) -> Result<(), BankError> {
+/// Checks that a complete shard file holds `info` and otherwise exactly the metadata `expected`
+/// (used on resume).
+pub(crate) fn shard_matches(
+    path: &Path,
+    expected: &BankMetadata,
+    info: &ShardInfo,
+) -> Result<(), BankError> {
     let (_, meta, bank_meta) = open_shard(path)?;
     let rows = meta.metadata().file_metadata().num_rows() as usize;
-    if bank_meta.bank_id != id || bank_meta.shard != *info || rows != info.rows {
+    // Everything but the shard's own place must be what this run would write (a shard written
+    // by another version, e.g. with another calibration checksum, is simulated again).
+    let mut want = expected.clone();
+    want.shard = *info;
+    if bank_meta != want || rows != info.rows {
         return Err(BankError::Corrupt {
             path: path.to_path_buf(),
             message: "belongs to another bank or holds other rows".into(),
