@@ -305,7 +305,15 @@ fn pyarrow_reads_shape_column_names_and_metadata() {
         .output();
     let missing = match &import {
         Ok(out) if out.status.success() => None,
-        Ok(out) => Some(String::from_utf8_lossy(&out.stderr).trim().to_string()),
+        // The last line of the traceback: the error itself.
+        Ok(out) => Some(
+            String::from_utf8_lossy(&out.stderr)
+                .trim()
+                .lines()
+                .last()
+                .unwrap_or("no error message")
+                .to_string(),
+        ),
         Err(e) => Some(format!("cannot run it: {e}")),
     };
     if let Some(why) = missing {
