@@ -36,14 +36,6 @@ fn main() {
     if let Some(v) = a.get(7) {
         st.shift_error_per_mm = v.parse().unwrap();
     }
-    let emu = std::env::var("EMU").ok().map(|v| {
-        let mut e = wheelflat::identify::emulator::EmulatorSettings::default();
-        let f: Vec<f64> = v.split(',').map(|x| x.parse().unwrap()).collect();
-        e.kappa_error = f[0];
-        e.depth = f[1] as u32;
-        e.shift_error_per_mm = st.shift_error_per_mm;
-        e
-    });
     let which = if a.get(8).is_some_and(|s| s == "all") {
         AlignedPoints::AllPips
     } else {
@@ -77,9 +69,7 @@ fn main() {
         let syn = synthesize(&meas_cal, flat, seed.wrapping_add(case as u64), true).unwrap();
         let m = Measurement::from_csv(Path::new("case.csv"), &syn.csv, cal.output.sample_rate_hz)
             .unwrap();
-        let out = id
-            .identify_aligned(&m, None, &cells, &st, which, emu.as_ref())
-            .unwrap();
+        let out = id.identify_aligned(&m, None, &cells, &st, which).unwrap();
         let t = &syn.truth;
         let inside = |r: &wheelflat::identify::result::ParamRanges, full: bool| {
             let ld = r.length_mm[0] <= t.length_mm
@@ -98,10 +88,7 @@ fn main() {
             None => (false, [f64::NAN, f64::NAN], 2),
         };
         let b = judge(out.base.falsifications[0].ranges.as_ref(), false);
-        let n = match &out.emulated {
-            Some((_, r)) => judge(r.as_ref(), true),
-            None => judge(out.ranges.as_ref(), true),
-        };
+        let n = judge(out.ranges.as_ref(), true);
         println!(
             "{case:>3} L {:6.1} d {:.3} c {:.3} X {:.3} L0 {:5.1} | base {:>5} {} [{:5.1},{:5.1}] | aligned {:>5} {} [{:5.1},{:5.1}] cls {}/{} | {} pts {} cols read {:.1} ms fals {:.1} ms",
             t.length_mm, t.depth_mm, t.curvature_mm, t.impact_position_m, t.l0_mm,
@@ -109,13 +96,7 @@ fn main() {
             out.survivors.len(), n.0 as u8, n.1[0], n.1[1], n.2, truth_class,
             out.points, out.columns, out.read_ms, out.falsify_ms
         );
-        rows.push((
-            t.l0_mm,
-            truth_class,
-            b,
-            n,
-            out.read_ms + out.falsify_ms + out.emulator_ms,
-        ));
+        rows.push((t.l0_mm, truth_class, b, n, out.read_ms + out.falsify_ms));
     }
     let k = rows.len() as f64;
     for (name, pick) in [("bank-only (kappa cells)", 0usize), ("aligned", 1)] {

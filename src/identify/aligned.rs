@@ -201,7 +201,7 @@ pub struct ShiftPoint<'a> {
 impl ShiftPoint<'_> {
     /// r_i at window sample `s` (None outside the columns read).
     #[inline]
-    pub(crate) fn response_at(&self, i: usize, s: isize) -> Option<f64> {
+    fn response_at(&self, i: usize, s: isize) -> Option<f64> {
         let at = s - self.first as isize;
         if at < 0 || at as usize >= self.columns.len() {
             return None;
@@ -360,10 +360,6 @@ pub struct AlignedOutcome {
     pub read_ms: f64,
     /// Time of the falsification (ms).
     pub falsify_ms: f64,
-    /// The emulator stage, when asked for: kept bounds per instance and their union.
-    pub emulated: Option<super::emulator::Emulated>,
-    /// Time of the emulator stage (ms).
-    pub emulator_ms: f64,
 }
 
 impl Identifier {
@@ -375,7 +371,6 @@ impl Identifier {
         cells: &AlignedCells,
         st: &AlignedSettings,
         which: AlignedPoints,
-        emu: Option<&super::emulator::EmulatorSettings>,
     ) -> Result<AlignedOutcome, super::IdentifyError> {
         let base = self.identify(m, sensors, super::Extras::NONE)?;
         let meta = self.bank().metadata();
@@ -437,26 +432,6 @@ impl Identifier {
         let survivors = falsify_aligned(&points, cells, st, self.bank().instances());
         let falsify_ms = clock.elapsed().as_secs_f64() * 1e3;
         let ranges = self.aligned_ranges(cells, &survivors);
-        let clock = std::time::Instant::now();
-        let emulated = emu.map(|e| {
-            let cal = &meta.calibration;
-            let kept = super::emulator::refine(
-                &points,
-                cells,
-                &self.params,
-                &cal.population,
-                &survivors,
-                e,
-            );
-            let wheels = super::ranges::wheels_of(
-                kept.iter()
-                    .map(|(k, _)| self.params.flat_wheel[*k as usize]),
-            );
-            let ranges = union(kept.iter().map(|(_, b)| *b))
-                .map(|b| bounds_to_ranges(b, &cal.population, cal.vehicle.wheel_radius_m, wheels));
-            (kept, ranges)
-        });
-        let emulator_ms = clock.elapsed().as_secs_f64() * 1e3;
         Ok(AlignedOutcome {
             base,
             survivors,
@@ -465,8 +440,6 @@ impl Identifier {
             columns: uniq.len(),
             read_ms,
             falsify_ms,
-            emulated,
-            emulator_ms,
         })
     }
 
@@ -475,5 +448,111 @@ impl Identifier {
         let cal = &self.bank().metadata().calibration;
         let step = cal.run.speed_km_per_h / 3.6 / cal.output.sample_rate_hz;
         AlignedCells::new(&self.params, &cal.population, step, reach_m)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params(xs: &[[f64; 4]]) -> Parameters {
+        Parameters {
+            instance: (0..xs.len() as u32).collect(),
+            length_mm: xs.iter().map(|x| x[0]).collect(),
+            depth_mm: xs.iter().map(|x| x[1]).collect(),
+            curvature_mm: xs.iter().map(|x| x[2]).collect(),
+            impact_position_m: xs.iter().map(|x| x[3]).collect(),
+            l0_mm: vec![0.0; xs.len()],
+            flat_wheel: vec![1; xs.len()],
+        }
+    }
+
+    fn population() -> PopulationParams {
+        let mut p = crate::model::Calibration::default().population;
+        p.length_mm = [10.0, 200.0];
+        p.depth_mm = [0.1, 1.0];
+        p.curvature_mm = [0.0, 0.05];
+        p.impact_position_m = [12.0, 13.0];
+        p
+    }
+
+    /// The neighbours are the nearest in (L, d, c, φ) among the instances within reach, with
+    /// the whole-sample offsets between their impact positions; checked against brute force.
+    #[test]
+    fn neighbours_are_the_nearest_within_reach_with_their_offsets() {
+        let mut state = 7u64;
+        let mut u = || crate::bank::population::uniform(&mut state);
+        let xs: Vec<[f64; 4]> = (0..400)
+            .map(|_| [10.0 + 190.0 * u(), 0.2 + 0.8 * u(), 0.1 * u(), 12.0 + u()])
+            .collect();
+        let (p, pop) = (params(&xs), population());
+        let (step, reach) = (0.005, 0.1);
+        let cells = AlignedCells::new(&p, &pop, step, reach);
+        let unit = unit_points(&p, &pop);
+        for i in (0..xs.len()).step_by(23) {
+            let mut all: Vec<(f64, usize)> = (0..xs.len())
+                .filter(|&j| j != i && (xs[j][3] - xs[i][3]).abs() <= reach)
+                .map(|j| {
+                    let (a, b) = (
+                        (xs[i][3] / step).rem_euclid(1.0),
+                        (xs[j][3] / step).rem_euclid(1.0),
+                    );
+                    let dphi = (a - b).abs().min(1.0 - (a - b).abs());
+                    let d2 = (0..3)
+                        .map(|t| (unit[i][t] - unit[j][t]).powi(2))
+                        .sum::<f64>()
+                        + dphi * dphi;
+                    (d2, j)
+                })
+                .collect();
+            all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            let got: Vec<(usize, i32)> = cells.neighbours(i).collect();
+            for (t, &(j, m)) in got.iter().enumerate() {
+                assert_eq!(j, all[t].1, "instance {i}, neighbour {t}");
+                assert_eq!(m, ((xs[j][3] - xs[i][3]) / step).round() as i32);
+            }
+        }
+    }
+
+    /// A measurement that is an instance's response delayed by three samples keeps that
+    /// instance at exactly the shift n = 3, and no other shift within reach (thresholds far
+    /// smaller than a one-sample change of the pulse).
+    #[test]
+    fn a_delayed_response_is_found_at_its_whole_sample_shift() {
+        let xs = [[50.0, 0.5, 0.0, 12.5], [150.0, 0.9, 0.0, 12.5]];
+        let (p, pop) = (params(&xs), population());
+        let cells = AlignedCells::new(&p, &pop, 0.005, 0.03);
+        assert_eq!(cells.max_shift, 6);
+        let len = 60;
+        let template = vec![10.0f32; len];
+        let pulse = |k: usize, a: f32| 10.0 + a * (-((k as f32 - 30.0) / 2.0).powi(2)).exp();
+        let columns: Vec<Vec<f32>> = (0..len)
+            .map(|k| vec![pulse(k, 40.0), pulse(k, 80.0)])
+            .collect();
+        let points: Vec<ShiftPoint> = (25..40)
+            .map(|k| ShiftPoint {
+                sample: k,
+                columns: columns.iter().map(Vec::as_slice).collect(),
+                first: 0,
+                template: &template,
+                measured_kn: pulse(k - 3, 40.0) as f64,
+                low_kn: -0.5,
+                high_kn: 0.5,
+            })
+            .collect();
+        let st = AlignedSettings {
+            kappa: 0.0,
+            shift_error_per_mm: 0.0,
+            ..AlignedSettings::default()
+        };
+        let kept = falsify_aligned(&points, &cells, &st, 2);
+        assert_eq!(
+            kept,
+            vec![Survivor {
+                row: 0,
+                n_min: 3,
+                n_max: 3
+            }]
+        );
     }
 }

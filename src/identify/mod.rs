@@ -8,7 +8,6 @@
 pub mod aligned;
 pub mod cells;
 pub mod coverage;
-pub mod emulator;
 pub mod entropy;
 pub mod falsify;
 pub mod measurement;
