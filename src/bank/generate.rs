@@ -294,7 +294,7 @@ pub fn generate(
         let rows = rows?;
         let name = shard_file_name(f, count);
         let path = version.join(&name);
-        let tmp = version.join(format!(".{name}.tmp"));
+        let tmp = crate::atomic::temporary_sibling(&path);
         let meta = BankMetadata {
             shard: info,
             ..base_meta.clone()
