@@ -35,6 +35,7 @@ use crate::identify::result::Identification;
 mod entropy;
 mod html;
 mod parallel;
+pub mod sample;
 mod series;
 mod subsets;
 #[cfg(test)]
