@@ -63,7 +63,10 @@ fn main() {
         cal.identification.inspect_l0_mm,
         cal.identification.urgent_l0_mm,
     );
-    let top = (8.0 * cal.population.depth_mm[1] * cal.vehicle.wheel_radius_m * 1e3).sqrt();
+    let top = wheelflat::model::Flat::fresh_length_mm(
+        cal.population.depth_mm[1],
+        cal.vehicle.wheel_radius_m,
+    );
     let mut rows: Vec<Row> = Vec::new();
     for (case, flat) in coverage::truths(&cal, cases, seed).iter().enumerate() {
         let syn = synthesize(&meas_cal, flat, seed.wrapping_add(case as u64), true).unwrap();

@@ -54,9 +54,7 @@ pub(super) fn run(out: &Path, bank_dir: &Path, instances: usize) -> Result<()> {
     let syn = synth::synthesize(&cal, &flat, seed, true)?;
     let measured = out.join("measurement.csv");
     let truth_path = out.join("measurement.truth.json");
-    write_file(&measured, syn.csv.as_bytes())?;
-    let json = serde_json::to_string_pretty(&syn.truth).expect("truth serialises");
-    write_file(&truth_path, json.as_bytes())?;
+    super::synth::write_measurement(&syn, &measured, &truth_path)?;
     println!(
         "{} (L0 {:.1} mm), errors drawn inside the uncertainty table with seed {seed}: wrote {} and {}",
         flat_title(Some(&flat)),

@@ -2,14 +2,22 @@
 
 use super::args::{parse_effect, parse_flat_on, SynthArgs};
 use super::{load_calibration, write_file};
-use crate::identify::synth::synthesize;
+use crate::identify::synth::{synthesize, Synthetic};
 use crate::model::CheckedCalibration;
 use crate::report::response::flat_title;
 use crate::train::{default_flats, synthesize_train, TrainSpec};
 use anyhow::{Context, Result};
+use std::path::Path;
 
 /// Adds the `--effect`s to the calibration, then synthesises one bogie or (`--train`) a
 /// train, writing the measurement and its truth.
+/// Writes a synthetic measurement's CSV and its truth JSON.
+pub(super) fn write_measurement(syn: &Synthetic, csv: &Path, truth: &Path) -> Result<()> {
+    write_file(csv, syn.csv.as_bytes())?;
+    let json = serde_json::to_string_pretty(&syn.truth).expect("truth serialises");
+    write_file(truth, json.as_bytes())
+}
+
 pub(super) fn run(a: &SynthArgs) -> Result<()> {
     let mut cal = load_calibration(a.calibration.as_deref())?;
     if !a.effects.is_empty() {
@@ -31,9 +39,7 @@ pub(super) fn run(a: &SynthArgs) -> Result<()> {
         .truth
         .clone()
         .unwrap_or_else(|| a.out.with_extension("truth.json"));
-    write_file(&a.out, syn.csv.as_bytes())?;
-    let json = serde_json::to_string_pretty(&syn.truth).expect("truth serialises");
-    write_file(&truth_path, json.as_bytes())?;
+    write_measurement(&syn, &a.out, &truth_path)?;
     println!(
         "synthetic measurement of {} (L0 {:.1} mm){}, seed {}: wrote {} and {}",
         flat_title(Some(&flat)),

@@ -64,6 +64,7 @@ pub struct AlignedCells {
     pub max_shift: i32,
     neighbours: Vec<u32>,
     offsets: Vec<i16>,
+    max_offset: i32,
     half_extent: Vec<[f64; 3]>,
 }
 
@@ -149,6 +150,7 @@ impl AlignedCells {
         AlignedCells {
             step_m,
             max_shift: (reach_m / step_m).round() as i32,
+            max_offset: offsets.iter().map(|m| (*m as i32).abs()).max().unwrap_or(0),
             neighbours,
             offsets,
             half_extent,
@@ -171,11 +173,7 @@ impl AlignedCells {
 
     /// The largest |m_ij|.
     pub fn max_offset(&self) -> i32 {
-        self.offsets
-            .iter()
-            .map(|m| (*m as i32).abs())
-            .max()
-            .unwrap_or(0)
+        self.max_offset
     }
 }
 
@@ -381,7 +379,7 @@ impl Identifier {
                 meta.sensors
                     .iter()
                     .position(|a| a.name == s.sensor)
-                    .unwrap_or(0)
+                    .expect("an identification keeps only the bank's sensors")
             })
             .collect();
         let chosen: Vec<usize> = match which {
@@ -403,9 +401,9 @@ impl Identifier {
                 cols.push(self.bank().sample_index(axes[cp.series], s));
             }
         }
-        let mut uniq = cols.clone();
-        uniq.sort_unstable();
-        uniq.dedup();
+        cols.sort_unstable();
+        cols.dedup();
+        let uniq = cols;
         let data = self.bank().read_columns(&uniq)?;
         let read_ms = clock.elapsed().as_secs_f64() * 1e3;
         let col = |c: usize| data[uniq.binary_search(&c).expect("read")].as_slice();
