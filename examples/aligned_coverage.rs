@@ -3,22 +3,11 @@
 use std::path::Path;
 use wheelflat::bank::Bank;
 use wheelflat::identify::aligned::{AlignedPoints, AlignedSettings};
+use wheelflat::identify::coverage::{method_line, severity_class, Judged};
 use wheelflat::identify::{coverage, synth::synthesize, Identifier, Measurement};
 
-/// (truth inside, L0 range, severity class) of one method's answer.
-type Judged = (bool, [f64; 2], usize);
 /// (true L0, true class, bank-only, aligned, stage time in ms) of one case.
 type Row = (f64, usize, Judged, Judged, f64);
-
-fn class(l0: f64, inspect: f64, urgent: f64) -> usize {
-    if l0 >= urgent {
-        2
-    } else if l0 >= inspect {
-        1
-    } else {
-        0
-    }
-}
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();
@@ -43,10 +32,7 @@ fn main() {
     };
     let cal = bank.metadata().calibration.clone().check().unwrap();
     let meas_cal = if finer {
-        let mut d = cal.document().clone();
-        d.integration.elements_per_bay *= 2;
-        d.integration.coarse_steps_per_sample *= 2;
-        d.check().unwrap()
+        coverage::finer_model(&cal)
     } else {
         cal.clone()
     };
@@ -85,9 +71,13 @@ fn main() {
                     && r.impact_position_m[0] <= t.impact_position_m
                     && t.impact_position_m <= r.impact_position_m[1]))
         };
-        let truth_class = class(t.l0_mm, insp, urg);
+        let truth_class = severity_class(t.l0_mm, insp, urg);
         let judge = |r: Option<&wheelflat::identify::result::ParamRanges>, full: bool| match r {
-            Some(r) => (inside(r, full), r.l0_mm, class(r.l0_mm[1], insp, urg)),
+            Some(r) => (
+                inside(r, full),
+                r.l0_mm,
+                severity_class(r.l0_mm[1], insp, urg),
+            ),
             None => (false, [f64::NAN, f64::NAN], 2),
         };
         let b = judge(out.base.falsifications[0].ranges.as_ref(), false);
@@ -101,26 +91,14 @@ fn main() {
         );
         rows.push((t.l0_mm, truth_class, b, n, out.read_ms + out.falsify_ms));
     }
-    let k = rows.len() as f64;
-    for (name, pick) in [("bank-only (kappa cells)", 0usize), ("aligned", 1)] {
-        let get = |r: &Row| if pick == 0 { r.2 } else { r.3 };
-        let cov = rows.iter().filter(|r| get(r).0).count() as f64 / k;
-        let mut w: Vec<f64> = rows
-            .iter()
-            .map(|r| get(r).1[1] - get(r).1[0])
-            .filter(|w| w.is_finite())
-            .collect();
-        w.sort_by(f64::total_cmp);
-        let under: Vec<_> = rows.iter().filter(|r| r.0 < 50.0).collect();
-        let below_top = under.iter().filter(|r| get(r).1[1] < top - 0.05).count() as f64
-            / under.len().max(1) as f64;
-        let right = rows.iter().filter(|r| get(r).2 == r.1).count() as f64 / k;
-        let unsafe_ = rows.iter().filter(|r| get(r).2 < r.1).count();
-        println!(
-            "{name}: coverage {cov:.3}, median L0 width {:.1} mm, upper below top {below_top:.2} (of {} with L0 < 50), severity right {right:.2}, under-called {unsafe_}",
-            w.get(w.len() / 2).copied().unwrap_or(f64::NAN), under.len()
-        );
-    }
+    let truth: Vec<(f64, usize)> = rows.iter().map(|r| (r.0, r.1)).collect();
+    let base: Vec<Judged> = rows.iter().map(|r| r.2).collect();
+    let aligned: Vec<Judged> = rows.iter().map(|r| r.3).collect();
+    println!(
+        "{}",
+        method_line("bank-only (kappa cells)", &truth, &base, top)
+    );
+    println!("{}", method_line("aligned", &truth, &aligned, top));
     let mut t: Vec<f64> = rows.iter().map(|r| r.4).collect();
     t.sort_by(f64::total_cmp);
     println!(

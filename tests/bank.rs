@@ -38,7 +38,11 @@ fn same_inputs_give_identical_bytes_with_one_or_two_threads() {
     generate_with_threads(&cal, a.path(), &opts, 1);
     generate_with_threads(&cal, b.path(), &opts, 2);
     let (sa, sb) = (files(a.path(), &[]), files(b.path(), &[]));
-    assert_eq!(sa.len(), 3 + 2, "3 shard files + manifest + CURRENT");
+    assert_eq!(
+        sa.len(),
+        3 + 3,
+        "3 shard files + neighbour graph + manifest + CURRENT"
+    );
     assert!(sa == sb, "banks differ between 1 and 2 threads");
 }
 
@@ -284,6 +288,53 @@ fn corrupt_or_truncated_files_are_named_never_a_panic() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("not a wheelflat bank"), "{err}");
+}
+
+#[test]
+fn the_stored_neighbour_graph_is_the_one_searched_from_the_stored_parameters() {
+    let cal = bank_calibration();
+    let dir = tempfile::tempdir().unwrap();
+    let Outcome::Complete { version, .. } =
+        generate_with_threads(&cal, dir.path(), &options(40, 16), 2)
+    else {
+        panic!()
+    };
+    let bank = Bank::open(dir.path()).unwrap();
+    let searched =
+        bank::neighbours::neighbour_graph(&bank.read_parameters().unwrap(), &cal.population);
+    assert_eq!(bank.neighbours(), Some(searched.as_slice()));
+
+    // A bank written before the graph was stored: no entry, the reader has none; generate
+    // on the up-to-date bank adds it, and then it is the same graph.
+    let manifest_path = version.join("manifest.json");
+    let mut manifest: bank::Manifest =
+        serde_json::from_str(&std::fs::read_to_string(&manifest_path).unwrap()).unwrap();
+    manifest.neighbours = None;
+    std::fs::write(&manifest_path, serde_json::to_string(&manifest).unwrap()).unwrap();
+    std::fs::remove_file(version.join("neighbours.bin")).unwrap();
+    assert_eq!(Bank::open(dir.path()).unwrap().neighbours(), None);
+    assert!(matches!(
+        generate_with_threads(&cal, dir.path(), &options(40, 16), 1),
+        Outcome::UpToDate { .. }
+    ));
+    assert_eq!(
+        Bank::open(dir.path()).unwrap().neighbours(),
+        Some(searched.as_slice())
+    );
+
+    // One flipped bit in the graph: open and verify refuse it, naming the file.
+    let path = version.join("neighbours.bin");
+    let mut bytes = std::fs::read(&path).unwrap();
+    bytes[100] ^= 1;
+    std::fs::write(&path, &bytes).unwrap();
+    let err = Bank::open(dir.path()).unwrap_err().to_string();
+    assert!(
+        err.contains("neighbours.bin") && err.contains("sha256"),
+        "{err}"
+    );
+    let (_, problems) = bank::verify(dir.path()).unwrap();
+    assert_eq!(problems.len(), 1, "{problems:?}");
+    assert!(problems[0].path == path, "{problems:?}");
 }
 
 /// Whether this run is under CI, where the interop check must run: `CI` set (to anything but

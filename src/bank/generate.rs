@@ -8,6 +8,7 @@
 //! DIR/CURRENT                      name of the complete version readers use (atomic rename)
 //! DIR/v-<bank id>/shard-00000-of-00020.parquet
 //! DIR/v-<bank id>/...
+//! DIR/v-<bank id>/neighbours.bin   the instances' neighbour graph (bank::neighbours)
 //! DIR/v-<bank id>/manifest.json    written last, with every file's size and SHA-256
 //! ```
 //!
@@ -15,10 +16,11 @@
 //! storage format, generator and model revision), so a changed calibration builds a new version
 //! beside the old one, and a rerun of the same arguments finds its own unfinished version.
 
+use super::neighbours::{neighbour_graph, NEIGHBOURS_FILE};
 use super::population::Population;
 use super::schema::{
     bank_id, calibration_sha256, sensor_axes, sha256_hex, shard_matches, BankMetadata, Manifest,
-    ManifestFile, ShardInfo, FORMAT_VERSION, MODEL_REVISION,
+    ManifestAux, ManifestFile, Parameters, ShardInfo, FORMAT_VERSION, MODEL_REVISION,
 };
 pub use super::schema::{shard_file_name, CURRENT, MANIFEST};
 use super::writer::{write_shard, InstanceRow, StorageFormat};
@@ -104,6 +106,57 @@ pub(crate) fn write_file_atomically(path: &Path, bytes: &[u8]) -> Result<(), Ban
     crate::atomic::write_atomically(path, bytes).map_err(io_err(path))
 }
 
+/// The neighbour graph of the population's instances, built from the parameters exactly as
+/// the shards store them.
+fn population_graph(cal: &CheckedCalibration, opts: &GenerateOptions) -> Vec<u32> {
+    let population = Population::new(&cal.population, opts.instances, opts.seed);
+    let mut p = Parameters::default();
+    for i in 0..opts.instances {
+        let s = population.instance(i);
+        p.instance.push(i as u32);
+        p.length_mm.push(s.length_mm);
+        p.depth_mm.push(s.depth_mm);
+        p.curvature_mm.push(s.curvature_mm);
+        p.impact_position_m.push(s.impact_position_m);
+        p.flat_wheel
+            .push(s.wheel.unwrap_or(cal.vehicle.flat_wheel).index() as u8);
+    }
+    neighbour_graph(&p, &cal.population)
+}
+
+/// Writes the version's `neighbours.bin` atomically; its manifest entry.
+fn write_neighbours(
+    version: &Path,
+    id: &str,
+    cal: &CheckedCalibration,
+    opts: &GenerateOptions,
+) -> Result<ManifestAux, BankError> {
+    let bytes = super::neighbours::encode(id, &population_graph(cal, opts));
+    write_file_atomically(&version.join(NEIGHBOURS_FILE), &bytes)?;
+    Ok(ManifestAux {
+        name: NEIGHBOURS_FILE.into(),
+        bytes: bytes.len() as u64,
+        sha256: sha256_hex(&bytes),
+    })
+}
+
+/// A complete version written before the graph was stored gets it now: the graph, then the
+/// manifest rewritten atomically with its entry (readers see the old or the new manifest, and
+/// either describes files that are in place).
+fn add_missing_neighbours(
+    version: &Path,
+    cal: &CheckedCalibration,
+    opts: &GenerateOptions,
+) -> Result<(), BankError> {
+    let mut manifest = super::reader::read_manifest(version)?;
+    if manifest.neighbours.is_some() {
+        return Ok(());
+    }
+    manifest.neighbours = Some(write_neighbours(version, &manifest.bank_id, cal, opts)?);
+    let json = serde_json::to_string_pretty(&manifest).expect("manifest serialises");
+    write_file_atomically(&version.join(MANIFEST), json.as_bytes())
+}
+
 /// The bank id of a generate call with these arguments.
 fn id_for(cal: &CheckedCalibration, opts: &GenerateOptions) -> String {
     bank_id(
@@ -145,6 +198,7 @@ pub fn generate(
     if opts.machine_shard.is_none() {
         let current = std::fs::read_to_string(&current_path).unwrap_or_default();
         if current.trim() == version_name && version.join(MANIFEST).is_file() {
+            add_missing_neighbours(&version, cal, opts)?;
             return Ok(Outcome::UpToDate { version });
         }
     }
@@ -330,6 +384,7 @@ pub fn generate(
             sha256: sha256_hex(&bytes),
         });
     }
+    let neighbours = write_neighbours(&version, &id, cal, opts)?;
     let manifest = Manifest {
         format_version: FORMAT_VERSION,
         bank_id: id,
@@ -337,6 +392,7 @@ pub fn generate(
         calibration_sha256: base_meta.calibration_sha256.clone(),
         instances: opts.instances,
         files: entries,
+        neighbours: Some(neighbours),
     };
     let json = serde_json::to_string_pretty(&manifest).expect("manifest serialises");
     write_file_atomically(&version.join(MANIFEST), json.as_bytes())?;

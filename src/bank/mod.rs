@@ -8,9 +8,11 @@
 //! - [`generate`]: parallel generation, resume, versions and the `CURRENT` pointer.
 //! - [`reader`]: memory-mapped reading of projected columns; verification.
 //! - [`info`]: a bank's size and parameter ranges.
+//! - [`neighbours`]: the instances' neighbour graph, built at generation, stored with the bank.
 
 pub mod generate;
 pub mod info;
+pub mod neighbours;
 pub mod population;
 pub mod reader;
 pub mod schema;

@@ -4,9 +4,10 @@
 //! and parses each footer once. [`Bank::read_columns`] then decodes only the projected columns
 //! (`ProjectionMask`) straight from the mapped pages.
 
+pub use super::schema::Parameters;
 use super::schema::{
-    open_shard, parquet_err, sha256_hex, BankMetadata, Manifest, CURRENT, FORMAT_VERSION, MANIFEST,
-    PARAMETER_COLUMNS,
+    open_shard, open_sibling_shard, parquet_err, sha256_hex, BankMetadata, Manifest, ManifestAux,
+    ManifestFile, CURRENT, FORMAT_VERSION, MANIFEST, PARAMETER_COLUMNS,
 };
 use super::BankError;
 use arrow_array::{Array, Float32Array, Float64Array, UInt32Array};
@@ -49,6 +50,8 @@ pub struct Bank {
     manifest: Manifest,
     metadata: BankMetadata,
     files: Vec<ShardFile>,
+    /// The stored neighbour graph, checked at open (`None` for banks written without one).
+    neighbours: Option<Vec<u32>>,
 }
 
 /// One instance as stored: its parameter columns and its force series.
@@ -61,25 +64,6 @@ pub struct StoredInstance {
     pub parameters: [f64; PARAMETER_COLUMNS.len()],
     /// Force samples (kN) per sensor axis, in the bank's axis order.
     pub forces_kn: Vec<Vec<f32>>,
-}
-
-/// The parameter columns of every instance.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct Parameters {
-    /// Instance numbers.
-    pub instance: Vec<u32>,
-    /// Flat length L (mm).
-    pub length_mm: Vec<f64>,
-    /// Flat depth d (mm).
-    pub depth_mm: Vec<f64>,
-    /// Curvature c (mm).
-    pub curvature_mm: Vec<f64>,
-    /// Impact position X_p (m).
-    pub impact_position_m: Vec<f64>,
-    /// Fresh-flat length L0 = sqrt(8·d·R_w) (mm).
-    pub l0_mm: Vec<f64>,
-    /// The wheel carrying the flat: 0 leading, 1 trailing.
-    pub flat_wheel: Vec<u8>,
 }
 
 /// The version directory a bank path designates: `DIR/CURRENT`'s target, or `DIR` itself when
@@ -101,6 +85,35 @@ pub fn resolve_version(dir: &Path) -> Result<PathBuf, BankError> {
     })
 }
 
+/// Reads the neighbour graph a manifest lists and checks it: size and SHA-256 against the
+/// manifest, header against the bank.
+fn read_neighbours(
+    version: &Path,
+    aux: &ManifestAux,
+    bank_id: &str,
+    instances: usize,
+) -> Result<Vec<u32>, BankError> {
+    let path = version.join(&aux.name);
+    let bytes = std::fs::read(&path).map_err(|source| BankError::Io {
+        path: path.clone(),
+        source,
+    })?;
+    if bytes.len() as u64 != aux.bytes {
+        return Err(BankError::Corrupt {
+            path,
+            message: format!("{} bytes, the manifest says {}", bytes.len(), aux.bytes),
+        });
+    }
+    let sum = sha256_hex(&bytes);
+    if sum != aux.sha256 {
+        return Err(BankError::Corrupt {
+            path,
+            message: format!("sha256 {sum}, the manifest says {}", aux.sha256),
+        });
+    }
+    super::neighbours::decode(&path, &bytes, bank_id, instances)
+}
+
 /// Reads a version directory's manifest.
 pub fn read_manifest(version: &Path) -> Result<Manifest, BankError> {
     let path = version.join(MANIFEST);
@@ -120,53 +133,98 @@ impl Bank {
     pub fn open(dir: &Path) -> Result<Bank, BankError> {
         let version = resolve_version(dir)?;
         let manifest = read_manifest(&version)?;
-        let mut files = Vec::with_capacity(manifest.files.len());
-        let mut metadata = None;
-        for f in &manifest.files {
-            let path = version.join(&f.name);
-            let (bytes, meta, bank_meta) = open_shard(&path)?;
+        let Some(first) = manifest.files.first() else {
+            return Err(BankError::Corrupt {
+                path: version.join(MANIFEST),
+                message: "lists no shard files".into(),
+            });
+        };
+        // The first shard in full (the bank's metadata and schema), the others against it, in
+        // parallel; each checked against the manifest before it is used.
+        let check = |path: &Path, bytes: &Bytes, f: &ManifestFile, id: &str, format: u32| {
             if bytes.len() as u64 != f.bytes {
                 return Err(BankError::Corrupt {
-                    path,
+                    path: path.to_path_buf(),
                     message: format!("{} bytes, the manifest says {}", bytes.len(), f.bytes),
                 });
             }
-            if bank_meta.bank_id != manifest.bank_id {
+            if id != manifest.bank_id {
                 return Err(BankError::Corrupt {
-                    path,
+                    path: path.to_path_buf(),
                     message: format!(
-                        "bank id {} does not match the manifest's {}",
-                        bank_meta.bank_id, manifest.bank_id
+                        "bank id {id} does not match the manifest's {}",
+                        manifest.bank_id
                     ),
                 });
             }
-            if bank_meta.format_version != FORMAT_VERSION {
+            if format != FORMAT_VERSION {
                 return Err(BankError::Corrupt {
-                    path,
+                    path: path.to_path_buf(),
                     message: format!(
-                        "bank format {} — this wheelflat reads format {FORMAT_VERSION}; regenerate the bank with `wheelflat bank generate`",
-                        bank_meta.format_version
+                        "bank format {format} — this wheelflat reads format {FORMAT_VERSION}; regenerate the bank with `wheelflat bank generate`"
                     ),
                 });
             }
-            metadata.get_or_insert(bank_meta);
-            files.push(ShardFile {
-                path,
-                bytes,
-                meta,
-                rows: f.rows,
-            });
-        }
+            Ok(())
+        };
+        let path = version.join(&first.name);
+        let (bytes, meta, bank_meta) = open_shard(&path)?;
+        check(
+            &path,
+            &bytes,
+            first,
+            &bank_meta.bank_id,
+            bank_meta.format_version,
+        )?;
+        let head = ShardFile {
+            path,
+            bytes,
+            meta,
+            rows: first.rows,
+        };
+        let rest: Vec<ShardFile> = manifest.files[1..]
+            .par_iter()
+            .map(|f| {
+                let path = version.join(&f.name);
+                let (bytes, meta, identity) = open_sibling_shard(&path, &head.meta)?;
+                check(&path, &bytes, f, &identity.bank_id, identity.format_version)?;
+                Ok(ShardFile {
+                    path,
+                    bytes,
+                    meta,
+                    rows: f.rows,
+                })
+            })
+            .collect::<Result<_, BankError>>()?;
+        let files: Vec<ShardFile> = std::iter::once(head).chain(rest).collect();
+        let metadata = Some(bank_meta);
         let metadata = metadata.ok_or_else(|| BankError::Corrupt {
             path: version.join(MANIFEST),
             message: "lists no shard files".into(),
         })?;
+        let instances = files.iter().map(|f| f.rows).sum();
+        let neighbours = match &manifest.neighbours {
+            Some(aux) => Some(read_neighbours(
+                &version,
+                aux,
+                &manifest.bank_id,
+                instances,
+            )?),
+            None => None,
+        };
         Ok(Bank {
             dir: version,
             manifest,
             metadata,
             files,
+            neighbours,
         })
+    }
+
+    /// The neighbour graph stored with the bank, checked against the manifest's SHA-256 and
+    /// the bank id ([`super::neighbours`]); `None` for a bank written without one.
+    pub fn neighbours(&self) -> Option<&[u32]> {
+        self.neighbours.as_deref()
     }
 
     /// The version directory.
@@ -502,6 +560,14 @@ pub fn verify(dir: &Path) -> Result<(Manifest, Vec<VerifyProblem>), BankError> {
         if let Err(e) = open_shard(&path) {
             problems.push(VerifyProblem {
                 path,
+                message: e.to_string(),
+            });
+        }
+    }
+    if let Some(aux) = &manifest.neighbours {
+        if let Err(e) = read_neighbours(&version, aux, &manifest.bank_id, manifest.instances) {
+            problems.push(VerifyProblem {
+                path: version.join(&aux.name),
                 message: e.to_string(),
             });
         }

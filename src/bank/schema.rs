@@ -106,6 +106,25 @@ pub struct BankMetadata {
     pub flat_free_kn: Vec<Vec<f32>>,
 }
 
+/// The parameter columns of every instance.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Parameters {
+    /// Instance numbers.
+    pub instance: Vec<u32>,
+    /// Flat length L (mm).
+    pub length_mm: Vec<f64>,
+    /// Flat depth d (mm).
+    pub depth_mm: Vec<f64>,
+    /// Curvature c (mm).
+    pub curvature_mm: Vec<f64>,
+    /// Impact position X_p (m).
+    pub impact_position_m: Vec<f64>,
+    /// Fresh-flat length L0 = sqrt(8·d·R_w) (mm).
+    pub l0_mm: Vec<f64>,
+    /// The wheel carrying the flat: 0 leading, 1 trailing.
+    pub flat_wheel: Vec<u8>,
+}
+
 /// One shard file in the manifest.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ManifestFile {
@@ -136,6 +155,21 @@ pub struct Manifest {
     pub instances: usize,
     /// The shard files, in instance order.
     pub files: Vec<ManifestFile>,
+    /// The neighbour graph (`neighbours.bin`, [`crate::bank::neighbours`]); absent in banks
+    /// written before it was stored, whose readers search it at open.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub neighbours: Option<ManifestAux>,
+}
+
+/// A file beside the shards, in the manifest.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ManifestAux {
+    /// File name inside the bank version directory.
+    pub name: String,
+    /// Size in bytes.
+    pub bytes: u64,
+    /// SHA-256 of the file, hex.
+    pub sha256: String,
 }
 
 /// Hex SHA-256 of bytes.
@@ -245,16 +279,7 @@ pub(crate) fn open_shard(
     let bytes = map(path)?;
     let meta =
         ArrowReaderMetadata::load(&bytes, ArrowReaderOptions::new()).map_err(parquet_err(path))?;
-    let kv = meta
-        .metadata()
-        .file_metadata()
-        .key_value_metadata()
-        .and_then(|kvs| kvs.iter().find(|kv| kv.key == METADATA_KEY))
-        .and_then(|kv| kv.value.clone())
-        .ok_or_else(|| BankError::Corrupt {
-            path: path.to_path_buf(),
-            message: format!("no `{METADATA_KEY}` metadata: not a wheelflat bank file"),
-        })?;
+    let kv = bank_metadata_text(path, meta.metadata().file_metadata())?;
     let bad = |e: serde_json::Error| BankError::Corrupt {
         path: path.to_path_buf(),
         message: format!("bad `{METADATA_KEY}` metadata: {e}"),
@@ -277,6 +302,66 @@ pub(crate) fn open_shard(
         }
     };
     Ok((bytes, meta, bank_meta))
+}
+
+/// The `wheelflat.bank` JSON of a shard's footer.
+fn bank_metadata_text(
+    path: &Path,
+    file: &parquet::file::metadata::FileMetaData,
+) -> Result<String, BankError> {
+    file.key_value_metadata()
+        .and_then(|kvs| kvs.iter().find(|kv| kv.key == METADATA_KEY))
+        .and_then(|kv| kv.value.clone())
+        .ok_or_else(|| BankError::Corrupt {
+            path: path.to_path_buf(),
+            message: format!("no `{METADATA_KEY}` metadata: not a wheelflat bank file"),
+        })
+}
+
+/// What a reader checks of every shard after the first: its bank id and format.
+#[derive(Debug, Deserialize)]
+pub(crate) struct ShardIdentity {
+    /// The bank id.
+    pub bank_id: String,
+    /// [`FORMAT_VERSION`].
+    pub format_version: u32,
+}
+
+/// Opens a shard of a bank whose first shard is already open (`first`): its footer is parsed
+/// with the first shard's schema (every shard of a bank has the same columns; a footer whose
+/// columns do not match fails to parse) and without the column statistics the bank does not
+/// write, and only the bank id and format are read from its metadata. About a third of the
+/// cost of [`open_shard`], and what `identify` pays for every shard of every bank it opens.
+pub(crate) fn open_sibling_shard(
+    path: &Path,
+    first: &ArrowReaderMetadata,
+) -> Result<(Bytes, ArrowReaderMetadata, ShardIdentity), BankError> {
+    use parquet::file::metadata::{
+        ParquetMetaDataOptions, ParquetMetaDataReader, ParquetStatisticsPolicy,
+    };
+    let bytes = map(path)?;
+    let options = ParquetMetaDataOptions::new()
+        .with_schema(first.metadata().file_metadata().schema_descr_ptr())
+        .with_encoding_stats_policy(ParquetStatisticsPolicy::SkipAll)
+        .with_column_stats_policy(ParquetStatisticsPolicy::SkipAll)
+        .with_size_stats_policy(ParquetStatisticsPolicy::SkipAll);
+    let parsed = ParquetMetaDataReader::new()
+        .with_metadata_options(Some(options))
+        .parse_and_finish(&bytes)
+        .map_err(parquet_err(path))?;
+    let kv = bank_metadata_text(path, parsed.file_metadata())?;
+    let identity: ShardIdentity = serde_json::from_str(&kv).map_err(|e| BankError::Corrupt {
+        path: path.to_path_buf(),
+        message: format!("bad `{METADATA_KEY}` metadata: {e}"),
+    })?;
+    let meta = ArrowReaderMetadata::try_new(
+        Arc::new(parsed),
+        ArrowReaderOptions::new()
+            .with_skip_arrow_metadata(true)
+            .with_schema(first.schema().clone()),
+    )
+    .map_err(parquet_err(path))?;
+    Ok((bytes, meta, identity))
 }
 
 /// Checks that a complete shard file holds `info` and otherwise exactly the metadata `expected`

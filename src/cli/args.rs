@@ -42,8 +42,24 @@ pub(super) enum Command {
     /// Make a field-like measurement from a chosen true flat (simulated, then perturbed with
     /// errors drawn inside the uncertainty table), with a truth JSON.
     Synth(SynthArgs),
-    /// Identify the flat size behind a measurement from a bank: JSON, figures, HTML report.
+    /// Identify the flat size behind a measurement from a bank: the verdict and
+    /// identification.json first; figures and the HTML report with `--report`.
     Identify(IdentifyArgs),
+    /// Draw the figures and the HTML report of an identification.json written by `identify`
+    /// or `watch`.
+    Report {
+        /// The identification JSON.
+        #[arg(long)]
+        from: PathBuf,
+        /// Report folder (default: the JSON's folder).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Keep a bank open and identify every measurement that arrives in an inbox folder:
+    /// results atomically in the output folder, inputs moved to done/ or failed/ (with the
+    /// reason), one log line per measurement; switches to a regenerated bank between
+    /// measurements; stops cleanly on SIGTERM or SIGINT.
+    Watch(WatchArgs),
     /// Print the paper-style comparison of the method with its baselines for one measurement.
     Compare(CompareArgs),
     /// Identify every wheel of a whole train pass: one recording, the trigger time of every
@@ -258,9 +274,44 @@ pub(super) struct IdentifyArgs {
     /// Report folder (JSON, PNG/SVG figures, report.html).
     #[arg(long)]
     pub out: PathBuf,
-    /// Skip the baselines (residual minimisation is always reported) and entropy curves.
+    /// Also draw the figures and write report.html, with the baselines and entropy curves
+    /// (the engineer's report; `wheelflat report --from` draws them later from the JSON).
+    #[arg(long)]
+    pub report: bool,
+    /// With `--report`: skip the baselines (residual minimisation is always reported) and the
+    /// entropy curves.
     #[arg(long)]
     pub no_baselines: bool,
+}
+
+// `watch`.
+#[derive(Debug, Args)]
+pub(super) struct WatchArgs {
+    /// Bank directory (its `CURRENT` is followed: a regenerated bank is used from the next
+    /// measurement on).
+    #[arg(long, default_value = "bank")]
+    pub bank: PathBuf,
+    /// Folder new measurements (`*.csv`) arrive in. Writers must write under another name
+    /// (e.g. a leading dot or a `.part` suffix) and rename when complete; `done/` and
+    /// `failed/` are made inside it.
+    #[arg(long)]
+    pub inbox: PathBuf,
+    /// Results: `<name>/identification.json` per measurement.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Only these sensors, e.g. `rps1,rps2`.
+    #[arg(long, value_delimiter = ',')]
+    pub sensors: Option<Vec<String>>,
+    /// Identification settings and uncertainty table from this calibration file instead of
+    /// the bank's.
+    #[arg(long)]
+    pub calibration: Option<PathBuf>,
+    /// How often the inbox and `CURRENT` are looked at when idle (milliseconds, 10–60000).
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(10..=60_000))]
+    pub poll_ms: u64,
+    /// Process what is in the inbox, then exit (for cron jobs and tests).
+    #[arg(long)]
+    pub once: bool,
 }
 
 // `train`.

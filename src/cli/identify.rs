@@ -8,16 +8,56 @@ use crate::report::tables::{comparison_table, identification_text};
 use anyhow::{Context, Result};
 use std::path::Path;
 
-/// Identifies and writes the report folder.
+/// Identifies; writes `identification.json` and prints the verdict before anything else, then
+/// with `--report` the figures and the HTML report.
 pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
     let i = &a.input;
     let (identifier, m) = open_identifier(&i.bank, &i.measured, i.calibration.as_deref())?;
-    let extras = Extras {
-        baselines: !a.no_baselines,
-        curves: !a.no_baselines,
+    let extras = if a.report {
+        Extras {
+            baselines: !a.no_baselines,
+            curves: !a.no_baselines,
+        }
+    } else {
+        Extras::NONE
     };
     let id = identifier.identify(&m, i.sensors.as_deref(), extras)?;
-    report(&id, &a.out, None)
+    if a.report {
+        return report(&id, &a.out, None);
+    }
+    let json = crate::report::identify::write_identification_json(&id, &a.out)
+        .with_context(|| format!("cannot write the result in {}", a.out.display()))?;
+    print!("{}", identification_text(&id));
+    println!(
+        "wrote {}; figures and report.html: wheelflat report --from {}",
+        json.display(),
+        json.display()
+    );
+    Ok(())
+}
+
+/// `wheelflat report`: the figures and HTML of an identification JSON.
+pub(super) fn report_from_json(from: &Path, out: Option<&Path>) -> Result<()> {
+    let text = std::fs::read_to_string(from)
+        .with_context(|| format!("cannot read identification {}", from.display()))?;
+    let id: Identification = serde_json::from_str(&text).with_context(|| {
+        format!(
+            "{} is not an identification.json written by wheelflat identify or watch",
+            from.display()
+        )
+    })?;
+    let dir = match out {
+        Some(d) => d.to_path_buf(),
+        None => from
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."))
+            .to_path_buf(),
+    };
+    let (figures, html) = crate::report::identify::write_figures_and_html(&id, &dir)
+        .with_context(|| format!("cannot write the report in {}", dir.display()))?;
+    println!("wrote {} ({} figures)", html.display(), figures.len());
+    Ok(())
 }
 
 /// Writes an identification's report into `dir` and prints its summary and comparison table.

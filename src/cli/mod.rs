@@ -5,8 +5,8 @@
 //! - [`args`]: the clap grammar of every command and the parsers of compound arguments.
 //! - [`progress`]: the progress bar or log lines of long jobs.
 //! - one file per command or group: [`calibration`], [`simulate`], [`bank`] (generate,
-//!   merge, info, verify, audit), [`synth`], [`identify`] (identify, compare), [`train`],
-//!   [`audit`], [`diagnose`], [`demo`].
+//!   merge, info, verify, audit), [`synth`], [`identify`] (identify, report, compare),
+//!   [`watch`], [`train`], [`audit`], [`diagnose`], [`demo`].
 
 mod args;
 mod audit;
@@ -19,6 +19,7 @@ mod progress;
 mod simulate;
 mod synth;
 mod train;
+mod watch;
 
 use crate::bank::Bank;
 use crate::identify::{Identifier, Measurement};
@@ -56,6 +57,8 @@ pub fn main() -> ExitCode {
         },
         Command::Synth(a) => synth::run(&a),
         Command::Identify(a) => identify::identify(&a),
+        Command::Report { from, out } => identify::report_from_json(&from, out.as_deref()),
+        Command::Watch(a) => watch::run(&a),
         Command::Compare(a) => identify::compare(&a),
         Command::Audit(a) => audit::run(&a),
         Command::Diagnose(a) => diagnose::run(&a),

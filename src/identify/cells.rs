@@ -17,10 +17,8 @@
 
 use crate::bank::Parameters;
 use crate::model::calibration::PopulationParams;
-use rayon::prelude::*;
 
-/// Neighbours per instance: two per dimension of the 4-D parameter space.
-pub const NEIGHBOURS: usize = 8;
+pub use crate::bank::neighbours::{nearest, unit_points, NEIGHBOURS};
 
 /// The neighbour graph of a bank's instances and each instance's cell extent.
 #[derive(Debug, Clone)]
@@ -31,99 +29,11 @@ pub struct Cells {
     half_extent: Vec<[f64; 4]>,
 }
 
-/// Unit-cube coordinates of every instance (the space the population was sampled in).
-pub fn unit_points(p: &Parameters, r: &PopulationParams) -> Vec<[f64; 4]> {
-    let unit = |v: f64, range: [f64; 2]| {
-        if range[1] > range[0] {
-            (v - range[0]) / (range[1] - range[0])
-        } else {
-            0.0
-        }
-    };
-    (0..p.length_mm.len())
-        .map(|k| {
-            let c_max = r.curvature_mm[1].min(p.depth_mm[k] / 2.0);
-            [
-                unit(p.length_mm[k], r.length_mm),
-                unit(p.depth_mm[k], r.depth_mm),
-                unit(p.curvature_mm[k], [r.curvature_mm[0], c_max]),
-                unit(p.impact_position_m[k], r.impact_position_m),
-            ]
-        })
-        .collect()
-}
-
-/// The `k` nearest other points of every point (Euclidean, unit cube), by a uniform grid:
-/// the search grows shell by shell until the k-th distance is certain.
-pub fn nearest(points: &[[f64; 4]], k: usize) -> Vec<u32> {
-    let n = points.len();
-    if n <= k {
-        // Everyone is everyone's neighbour; the missing places repeat the point itself.
-        return (0..n)
-            .flat_map(|i| {
-                (0..k).map(move |t| match t {
-                    t if t + 1 >= n => i as u32,
-                    t if t < i => t as u32,
-                    t => t as u32 + 1,
-                })
-            })
-            .collect();
-    }
-    let g = ((n as f64 / 2.0).powf(0.25).floor() as usize).max(1);
-    let cell_of = |x: f64| ((x * g as f64) as isize).clamp(0, g as isize - 1);
-    let key = |c: [isize; 4]| {
-        ((c[0] as usize * g + c[1] as usize) * g + c[2] as usize) * g + c[3] as usize
-    };
-    let mut buckets: Vec<Vec<u32>> = vec![Vec::new(); g.pow(4)];
-    for (i, x) in points.iter().enumerate() {
-        buckets[key(x.map(cell_of))].push(i as u32);
-    }
-    let width = 1.0 / g as f64;
-    (0..n)
-        .into_par_iter()
-        .flat_map_iter(|i| {
-            let x = points[i];
-            let c = x.map(cell_of);
-            let mut best: Vec<(f64, u32)> = Vec::with_capacity(4 * k);
-            let mut r = 1isize;
-            loop {
-                best.clear();
-                let lo = c.map(|v| (v - r).max(0));
-                let hi = c.map(|v| (v + r).min(g as isize - 1));
-                for a in lo[0]..=hi[0] {
-                    for b in lo[1]..=hi[1] {
-                        for cc in lo[2]..=hi[2] {
-                            for d in lo[3]..=hi[3] {
-                                for &j in &buckets[key([a, b, cc, d])] {
-                                    if j as usize != i {
-                                        let y = points[j as usize];
-                                        let d2: f64 = (0..4).map(|t| (x[t] - y[t]).powi(2)).sum();
-                                        best.push((d2, j));
-                                    }
-                                }
-                            }
-                        }
-                    }
-                }
-                best.sort_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)));
-                // Every point within r·width of x is in the searched block.
-                let sure = (r as f64 * width).powi(2);
-                let whole = r as usize >= g;
-                if best.len() >= k && (best[k - 1].0 <= sure || whole) {
-                    break;
-                }
-                r += 1;
-            }
-            best.truncate(k);
-            best.into_iter().map(|(_, j)| j).collect::<Vec<_>>()
-        })
-        .collect()
-}
-
 impl Cells {
-    /// The cells of a bank's instances. Instances with the flat on different wheels are
-    /// never neighbours (the wheel is not a continuous parameter).
-    pub fn new(p: &Parameters, ranges: &PopulationParams) -> Cells {
+    /// The cells of a bank's instances, from the neighbour graph stored with the bank
+    /// (`neighbours`, see [`crate::bank::neighbours`]) or, for a bank without one, searched
+    /// now. Instances with the flat on different wheels are never neighbours.
+    pub fn new(p: &Parameters, ranges: &PopulationParams, neighbours: Option<&[u32]>) -> Cells {
         let coords: Vec<[f64; 4]> = (0..p.length_mm.len())
             .map(|i| {
                 [
@@ -134,25 +44,11 @@ impl Cells {
                 ]
             })
             .collect();
-        let unit = unit_points(p, ranges);
-        let mut neighbours = vec![0u32; unit.len() * NEIGHBOURS];
-        for wheel in [0u8, 1] {
-            let members: Vec<usize> = (0..unit.len())
-                .filter(|&i| p.flat_wheel.get(i).copied().unwrap_or(1) == wheel)
-                .collect();
-            if members.is_empty() {
-                continue;
-            }
-            let sub: Vec<[f64; 4]> = members.iter().map(|&i| unit[i]).collect();
-            let nn = nearest(&sub, NEIGHBOURS);
-            for (m, &i) in members.iter().enumerate() {
-                for t in 0..NEIGHBOURS {
-                    neighbours[i * NEIGHBOURS + t] =
-                        members[nn[m * NEIGHBOURS + t] as usize] as u32;
-                }
-            }
-        }
-        Cells::from_neighbours(neighbours, &coords)
+        let graph = match neighbours {
+            Some(g) => g.to_vec(),
+            None => crate::bank::neighbours::neighbour_graph(p, ranges),
+        };
+        Cells::from_neighbours(graph, &coords)
     }
 
     /// The cells of any point set: `unit` places the points for the neighbour search, `coords`
@@ -237,38 +133,5 @@ impl Cells {
             .collect();
         let mid = s.len() / 2;
         *s.select_nth_unstable_by(mid, f64::total_cmp).1
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn brute(points: &[[f64; 4]], i: usize, k: usize) -> Vec<u32> {
-        let mut d: Vec<(f64, u32)> = (0..points.len())
-            .filter(|&j| j != i)
-            .map(|j| {
-                let d2: f64 = (0..4).map(|t| (points[i][t] - points[j][t]).powi(2)).sum();
-                (d2, j as u32)
-            })
-            .collect();
-        d.sort_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)));
-        d.into_iter().take(k).map(|(_, j)| j).collect()
-    }
-
-    #[test]
-    fn grid_search_finds_the_same_neighbours_as_brute_force() {
-        let mut state = 5u64;
-        let pts: Vec<[f64; 4]> = (0..3000)
-            .map(|_| std::array::from_fn(|_| crate::bank::population::uniform(&mut state)))
-            .collect();
-        let nn = nearest(&pts, NEIGHBOURS);
-        for i in (0..pts.len()).step_by(37) {
-            assert_eq!(
-                &nn[i * NEIGHBOURS..(i + 1) * NEIGHBOURS],
-                brute(&pts, i, NEIGHBOURS).as_slice(),
-                "point {i}"
-            );
-        }
     }
 }

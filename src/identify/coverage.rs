@@ -123,3 +123,61 @@ pub fn summarise(
     let sizes = results.iter().map(|r| pick(r).0 as f64).collect();
     (covered, median(widths), median(sizes))
 }
+
+/// One method's answer on one case of a study: truth inside the reported ranges, the L0 range
+/// (NaN when every instance is falsified), and the severity class it calls (0 monitor,
+/// 1 inspect, 2 urgent; an empty answer calls urgent).
+pub type Judged = (bool, [f64; 2], usize);
+
+/// The severity class of an L0 (0 monitor, 1 inspect, 2 urgent) with the settings' limits.
+pub fn severity_class(l0_mm: f64, inspect_mm: f64, urgent_mm: f64) -> usize {
+    if l0_mm >= urgent_mm {
+        2
+    } else if l0_mm >= inspect_mm {
+        1
+    } else {
+        0
+    }
+}
+
+/// The issue-11 line of one method over a study: coverage, median L0 width, share of the
+/// cases with a true L0 under 50 mm whose upper bound is below the population's top `top_mm`,
+/// severity right and under-called. `truth` holds each case's (true L0, true class).
+pub fn method_line(name: &str, truth: &[(f64, usize)], answers: &[Judged], top_mm: f64) -> String {
+    let k = answers.len().max(1) as f64;
+    let cov = answers.iter().filter(|a| a.0).count() as f64 / k;
+    let mut w: Vec<f64> = answers
+        .iter()
+        .map(|a| a.1[1] - a.1[0])
+        .filter(|w| w.is_finite())
+        .collect();
+    w.sort_by(f64::total_cmp);
+    let under: Vec<usize> = (0..truth.len()).filter(|&i| truth[i].0 < 50.0).collect();
+    let below = under
+        .iter()
+        .filter(|&&i| answers[i].1[1] < top_mm - 0.05)
+        .count() as f64
+        / under.len().max(1) as f64;
+    let right = (0..answers.len())
+        .filter(|&i| answers[i].2 == truth[i].1)
+        .count() as f64
+        / k;
+    let under_called = (0..answers.len())
+        .filter(|&i| answers[i].2 < truth[i].1)
+        .count();
+    format!(
+        "{name}: coverage {cov:.3}, median L0 width {:.1} mm, upper below top {below:.2} (of {} with L0 < 50), severity right {right:.2}, under-called {under_called}",
+        w.get(w.len() / 2).copied().unwrap_or(f64::NAN),
+        under.len()
+    )
+}
+
+/// The finer model that measurements with model-form error are simulated with: twice the
+/// elements per bay and half the time steps of `cal` (issue 11's second acceptance set).
+pub fn finer_model(cal: &CheckedCalibration) -> CheckedCalibration {
+    let mut d = cal.document().clone();
+    d.integration.elements_per_bay *= 2;
+    d.integration.coarse_steps_per_sample *= 2;
+    d.check()
+        .expect("doubling the mesh and halving the steps keeps a valid calibration")
+}

@@ -128,7 +128,11 @@ impl Identifier {
     pub fn new(bank: Bank, settings: IdentificationParams) -> Result<Identifier, IdentifyError> {
         let params = bank.read_parameters()?;
         let uncertainty = CombinedUncertainty::new(&settings);
-        let cells = Cells::new(&params, &bank.metadata().calibration.population);
+        let cells = Cells::new(
+            &params,
+            &bank.metadata().calibration.population,
+            bank.neighbours(),
+        );
         Ok(Identifier {
             bank,
             params,

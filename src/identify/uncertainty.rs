@@ -12,16 +12,26 @@
 //! samples of `U_c` (Šídák: `p = φ^(1/m)` for m points). Sorted samples of `U_c` are kept on a
 //! geometric grid of |y| and the thresholds interpolated between grid values, so a
 //! measurement costs two O(M) scans per point instead of a sort.
+//!
+//! A grid row is sorted the first time a force near it is asked for (a measurement touches a
+//! dozen of the ~90 rows; sorting all of them took 90 ms of every cold start), and each row's
+//! interval is remembered per probability (a measurement asks for two or three). Lazy or not,
+//! a row holds the same sorted samples, so the thresholds are the same.
 
 use crate::model::calibration::{IdentificationParams, UncertaintyGroup, UncertaintyKind};
+use std::collections::HashMap;
+use std::sync::{Mutex, OnceLock};
 
 /// Sorted Monte Carlo samples of the combined uncertainty on a grid of force magnitudes.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct CombinedUncertainty {
     s: Vec<f64>,
     t: Vec<f64>,
     grid_kn: Vec<f64>,
-    sorted: Vec<Vec<f64>>,
+    /// Each grid row's sorted samples of `U_c`, sorted on first use.
+    sorted: Vec<OnceLock<Vec<f64>>>,
+    /// Shortest intervals already found: (row, probability bits) → interval.
+    intervals: Mutex<HashMap<(usize, u64), (f64, f64)>>,
 }
 
 pub(crate) use crate::bank::population::uniform;
@@ -71,20 +81,39 @@ impl CombinedUncertainty {
             g *= 1.15;
         }
         grid_kn.push(2000.0);
-        let sorted = grid_kn
-            .iter()
-            .map(|&y| {
-                let mut u: Vec<f64> = s.iter().zip(&t).map(|(s, t)| y * s + t).collect();
-                u.sort_by(f64::total_cmp);
-                u
-            })
-            .collect();
+        let sorted = grid_kn.iter().map(|_| OnceLock::new()).collect();
         CombinedUncertainty {
             s,
             t,
             grid_kn,
             sorted,
+            intervals: Mutex::new(HashMap::new()),
         }
+    }
+
+    /// The sorted samples of `U_c` at grid row `i`.
+    fn row(&self, i: usize) -> &[f64] {
+        self.sorted[i].get_or_init(|| {
+            let y = self.grid_kn[i];
+            let mut u: Vec<f64> = self.s.iter().zip(&self.t).map(|(s, t)| y * s + t).collect();
+            u.sort_by(f64::total_cmp);
+            u
+        })
+    }
+
+    /// The shortest interval of row `i` holding probability `p`.
+    fn interval(&self, i: usize, p: f64) -> (f64, f64) {
+        let key = (i, p.to_bits());
+        if let Some(&v) = self.lock().get(&key) {
+            return v;
+        }
+        let v = shortest_interval(self.row(i), p);
+        self.lock().insert(key, v);
+        v
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<(usize, u64), (f64, f64)>> {
+        self.intervals.lock().unwrap_or_else(|e| e.into_inner())
     }
 
     /// Thresholds from a direct sort of the samples at `y_kn` (no grid interpolation): slower,
@@ -112,8 +141,8 @@ impl CombinedUncertainty {
             .clamp(1, self.grid_kn.len() - 1);
         let (g0, g1) = (self.grid_kn[i - 1], self.grid_kn[i]);
         let w = if g1 > g0 { (a - g0) / (g1 - g0) } else { 0.0 };
-        let (l0, h0) = shortest_interval(&self.sorted[i - 1], p);
-        let (l1, h1) = shortest_interval(&self.sorted[i], p);
+        let (l0, h0) = self.interval(i - 1, p);
+        let (l1, h1) = self.interval(i, p);
         let (lo, hi) = (l0 + w * (l1 - l0), h0 + w * (h1 - h0));
         if y_kn < 0.0 {
             // U(−y) = −(y·S) + T: mirror the magnitude's interval (T is symmetric by default;

@@ -206,18 +206,48 @@ pub fn write_identification_report(
     id: &Identification,
     dir: &Path,
 ) -> Result<ReportFiles, ReportError> {
+    let json = write_identification_json(id, dir)?;
+    let (figures, html) = write_figures_and_html(id, dir)?;
+    Ok(ReportFiles {
+        json,
+        html,
+        figures,
+    })
+}
+
+/// Writes `identification.json` alone into `dir` (created with its parents if missing),
+/// atomically: what a monitoring system reads, before any figure is drawn. Returns its path.
+///
+/// # Errors
+/// [`ReportError::Io`] or [`ReportError::Json`].
+pub fn write_identification_json(id: &Identification, dir: &Path) -> Result<PathBuf, ReportError> {
     fs::create_dir_all(dir).map_err(|source| ReportError::Io {
         path: dir.to_path_buf(),
         source,
     })?;
-
     let json_path = dir.join(JSON_FILE);
     let json = serde_json::to_string_pretty(id).map_err(|source| ReportError::Json {
         path: json_path.clone(),
         source,
     })?;
     write_atomic(&json_path, json.as_bytes())?;
+    Ok(json_path)
+}
 
+/// Draws every available figure of `id` (PNG and SVG) and `report.html` into `dir`, e.g. from
+/// an `identification.json` read back later (`wheelflat report`). Returns the figure paths
+/// and the HTML path.
+///
+/// # Errors
+/// As [`write_identification_report`].
+pub fn write_figures_and_html(
+    id: &Identification,
+    dir: &Path,
+) -> Result<(Vec<PathBuf>, PathBuf), ReportError> {
+    fs::create_dir_all(dir).map_err(|source| ReportError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
     let mut figures = Vec::new();
     let mut inline = Vec::new();
     for fig in Figure::ALL {
@@ -241,12 +271,7 @@ pub fn write_identification_report(
         source: std::io::Error::other("formatting the HTML report failed"),
     })?;
     write_atomic(&html_path, html.as_bytes())?;
-
-    Ok(ReportFiles {
-        json: json_path,
-        html: html_path,
-        figures,
-    })
+    Ok((figures, html_path))
 }
 
 /// Renders one figure of `id` to an SVG document (as written to `<name>.svg`; the HTML report

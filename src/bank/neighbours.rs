@@ -1,0 +1,262 @@
+//! The bank's neighbour graph: every instance's [`NEIGHBOURS`] nearest other instances in the
+//! unit cube the population is sampled in (L, d, c/c_max, X_p each mapped to [0, 1]), among
+//! the instances with the flat on the same wheel. Identification widens each instance to its
+//! cell from these neighbours (`identify::cells`).
+//!
+//! The graph depends only on the instances' parameters, so it is built once, by `bank
+//! generate` and `bank merge`, and stored beside the shards as `neighbours.bin`, listed in the
+//! manifest with its size and SHA-256. Opening a bank then costs a checked read instead of an
+//! N·log N search. Layout (little-endian):
+//!
+//! ```text
+//! magic  b"WFNEIGH1"          8 bytes
+//! n      u64                  instances
+//! k      u32                  neighbours per instance
+//! id_len u32, id              the bank id (UTF-8)
+//! graph  n·k u32              instance i's neighbours at [i·k, (i+1)·k)
+//! ```
+
+use super::schema::Parameters;
+use super::BankError;
+use crate::model::calibration::PopulationParams;
+use rayon::prelude::*;
+use std::path::Path;
+
+/// Neighbours per instance: two per dimension of the 4-D parameter space.
+pub const NEIGHBOURS: usize = 8;
+
+/// The graph's file name inside a version directory.
+pub const NEIGHBOURS_FILE: &str = "neighbours.bin";
+
+const MAGIC: &[u8; 8] = b"WFNEIGH1";
+
+/// Unit-cube coordinates of every instance (the space the population was sampled in).
+pub fn unit_points(p: &Parameters, r: &PopulationParams) -> Vec<[f64; 4]> {
+    let unit = |v: f64, range: [f64; 2]| {
+        if range[1] > range[0] {
+            (v - range[0]) / (range[1] - range[0])
+        } else {
+            0.0
+        }
+    };
+    (0..p.length_mm.len())
+        .map(|k| {
+            let c_max = r.curvature_mm[1].min(p.depth_mm[k] / 2.0);
+            [
+                unit(p.length_mm[k], r.length_mm),
+                unit(p.depth_mm[k], r.depth_mm),
+                unit(p.curvature_mm[k], [r.curvature_mm[0], c_max]),
+                unit(p.impact_position_m[k], r.impact_position_m),
+            ]
+        })
+        .collect()
+}
+
+/// The `k` nearest other points of every point (Euclidean, unit cube), by a uniform grid:
+/// the search grows shell by shell until the k-th distance is certain. Ties go to the lower
+/// index, so the graph does not depend on the thread count.
+pub fn nearest(points: &[[f64; 4]], k: usize) -> Vec<u32> {
+    let n = points.len();
+    if n <= k {
+        // Everyone is everyone's neighbour; the missing places repeat the point itself.
+        return (0..n)
+            .flat_map(|i| {
+                (0..k).map(move |t| match t {
+                    t if t + 1 >= n => i as u32,
+                    t if t < i => t as u32,
+                    t => t as u32 + 1,
+                })
+            })
+            .collect();
+    }
+    let g = ((n as f64 / 2.0).powf(0.25).floor() as usize).max(1);
+    let cell_of = |x: f64| ((x * g as f64) as isize).clamp(0, g as isize - 1);
+    let key = |c: [isize; 4]| {
+        ((c[0] as usize * g + c[1] as usize) * g + c[2] as usize) * g + c[3] as usize
+    };
+    let mut buckets: Vec<Vec<u32>> = vec![Vec::new(); g.pow(4)];
+    for (i, x) in points.iter().enumerate() {
+        buckets[key(x.map(cell_of))].push(i as u32);
+    }
+    let width = 1.0 / g as f64;
+    (0..n)
+        .into_par_iter()
+        .flat_map_iter(|i| {
+            let x = points[i];
+            let c = x.map(cell_of);
+            let mut best: Vec<(f64, u32)> = Vec::with_capacity(4 * k);
+            let mut r = 1isize;
+            loop {
+                best.clear();
+                let lo = c.map(|v| (v - r).max(0));
+                let hi = c.map(|v| (v + r).min(g as isize - 1));
+                for a in lo[0]..=hi[0] {
+                    for b in lo[1]..=hi[1] {
+                        for cc in lo[2]..=hi[2] {
+                            for d in lo[3]..=hi[3] {
+                                for &j in &buckets[key([a, b, cc, d])] {
+                                    if j as usize != i {
+                                        let y = points[j as usize];
+                                        let d2: f64 = (0..4).map(|t| (x[t] - y[t]).powi(2)).sum();
+                                        best.push((d2, j));
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+                best.sort_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)));
+                // Every point within r·width of x is in the searched block.
+                let sure = (r as f64 * width).powi(2);
+                let whole = r as usize >= g;
+                if best.len() >= k && (best[k - 1].0 <= sure || whole) {
+                    break;
+                }
+                r += 1;
+            }
+            best.truncate(k);
+            best.into_iter().map(|(_, j)| j).collect::<Vec<_>>()
+        })
+        .collect()
+}
+
+/// The neighbour graph of a bank's instances: [`NEIGHBOURS`] per instance, searched among
+/// the instances with the flat on the same wheel (the wheel is not a continuous parameter).
+pub fn neighbour_graph(p: &Parameters, ranges: &PopulationParams) -> Vec<u32> {
+    let unit = unit_points(p, ranges);
+    let mut neighbours = vec![0u32; unit.len() * NEIGHBOURS];
+    for wheel in [0u8, 1] {
+        let members: Vec<usize> = (0..unit.len())
+            .filter(|&i| p.flat_wheel.get(i).copied().unwrap_or(1) == wheel)
+            .collect();
+        if members.is_empty() {
+            continue;
+        }
+        let sub: Vec<[f64; 4]> = members.iter().map(|&i| unit[i]).collect();
+        let nn = nearest(&sub, NEIGHBOURS);
+        for (m, &i) in members.iter().enumerate() {
+            for t in 0..NEIGHBOURS {
+                neighbours[i * NEIGHBOURS + t] = members[nn[m * NEIGHBOURS + t] as usize] as u32;
+            }
+        }
+    }
+    neighbours
+}
+
+/// The file bytes of a graph.
+pub fn encode(bank_id: &str, graph: &[u32]) -> Vec<u8> {
+    let n = graph.len() / NEIGHBOURS;
+    let mut out = Vec::with_capacity(24 + bank_id.len() + graph.len() * 4);
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&(n as u64).to_le_bytes());
+    out.extend_from_slice(&(NEIGHBOURS as u32).to_le_bytes());
+    out.extend_from_slice(&(bank_id.len() as u32).to_le_bytes());
+    out.extend_from_slice(bank_id.as_bytes());
+    for v in graph {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    out
+}
+
+/// The graph in a file's bytes, checked against the bank it must belong to: magic, bank id,
+/// instance count, neighbours per instance, size, and every index inside the bank.
+pub fn decode(
+    path: &Path,
+    bytes: &[u8],
+    bank_id: &str,
+    instances: usize,
+) -> Result<Vec<u32>, BankError> {
+    let bad = |message: String| BankError::Corrupt {
+        path: path.to_path_buf(),
+        message,
+    };
+    let word = |at: usize, len: usize| {
+        bytes
+            .get(at..at + len)
+            .ok_or_else(|| bad(format!("{} bytes: ends inside the header", bytes.len())))
+    };
+    if word(0, 8)? != MAGIC {
+        return Err(bad("not a wheelflat neighbour graph (bad magic)".into()));
+    }
+    let n = u64::from_le_bytes(word(8, 8)?.try_into().expect("8 bytes"));
+    let k = u32::from_le_bytes(word(16, 4)?.try_into().expect("4 bytes"));
+    let id_len = u32::from_le_bytes(word(20, 4)?.try_into().expect("4 bytes")) as usize;
+    let id = word(24, id_len.min(256))?;
+    if id != bank_id.as_bytes() {
+        return Err(bad(format!(
+            "belongs to bank {}, not {bank_id}",
+            String::from_utf8_lossy(id)
+        )));
+    }
+    if n != instances as u64 || k as usize != NEIGHBOURS {
+        return Err(bad(format!(
+            "{n} instances × {k} neighbours; the bank has {instances} instances and identification uses {NEIGHBOURS}"
+        )));
+    }
+    let start = 24 + id_len;
+    let expected = start + instances * NEIGHBOURS * 4;
+    if bytes.len() != expected {
+        return Err(bad(format!("{} bytes, expected {expected}", bytes.len())));
+    }
+    let graph: Vec<u32> = bytes[start..]
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes")))
+        .collect();
+    if let Some(v) = graph.iter().find(|&&v| v as usize >= instances) {
+        return Err(bad(format!(
+            "neighbour index {v} outside the bank's {instances} instances"
+        )));
+    }
+    Ok(graph)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn brute(points: &[[f64; 4]], i: usize, k: usize) -> Vec<u32> {
+        let mut d: Vec<(f64, u32)> = (0..points.len())
+            .filter(|&j| j != i)
+            .map(|j| {
+                let d2: f64 = (0..4).map(|t| (points[i][t] - points[j][t]).powi(2)).sum();
+                (d2, j as u32)
+            })
+            .collect();
+        d.sort_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)));
+        d.into_iter().take(k).map(|(_, j)| j).collect()
+    }
+
+    #[test]
+    fn grid_search_finds_the_same_neighbours_as_brute_force() {
+        let mut state = 5u64;
+        let pts: Vec<[f64; 4]> = (0..3000)
+            .map(|_| std::array::from_fn(|_| crate::bank::population::uniform(&mut state)))
+            .collect();
+        let nn = nearest(&pts, NEIGHBOURS);
+        for i in (0..pts.len()).step_by(37) {
+            assert_eq!(
+                &nn[i * NEIGHBOURS..(i + 1) * NEIGHBOURS],
+                brute(&pts, i, NEIGHBOURS).as_slice(),
+                "point {i}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_graph_reads_back_and_foreign_or_damaged_files_are_refused() {
+        let graph: Vec<u32> = (0..5 * NEIGHBOURS as u32).map(|v| v % 5).collect();
+        let bytes = encode("abc", &graph);
+        let p = Path::new("neighbours.bin");
+        assert_eq!(decode(p, &bytes, "abc", 5).unwrap(), graph);
+        // Another bank, another size, a cut file, an index outside the bank.
+        assert!(decode(p, &bytes, "abd", 5).is_err());
+        assert!(decode(p, &bytes, "abc", 6).is_err());
+        assert!(decode(p, &bytes[..bytes.len() - 1], "abc", 5).is_err());
+        assert!(decode(p, &bytes[..10], "abc", 5).is_err());
+        let mut far = bytes.clone();
+        let last = far.len() - 4;
+        far[last..].copy_from_slice(&9u32.to_le_bytes());
+        let err = decode(p, &far, "abc", 5).unwrap_err().to_string();
+        assert!(err.contains("outside"), "{err}");
+    }
+}

@@ -1,0 +1,193 @@
+//! `wheelflat watch`: a resident identifier for a wayside system.
+//!
+//! The bank stays open (memory map, parameters, neighbour cells, threshold tables) and each
+//! measurement that appears in the inbox costs only its own identification. The contract:
+//! - **Only complete files.** A measurement is a regular `*.csv` file whose name does not
+//!   start with a dot; writers write under another name (`.name.csv`, `name.csv.part`) and
+//!   rename into place, so a file is never read half-written.
+//! - **Exactly once.** After its pass the input is moved to `done/` or, with a
+//!   `<name>.error.txt` saying why, to `failed/`; the result `OUT/<stem>/identification.json`
+//!   is written atomically before the input moves. A crash between the two leaves the input in
+//!   the inbox and the next start identifies it again (the result is replaced whole).
+//! - **One bank per pass.** `CURRENT` is looked at before every measurement; a regenerated bank
+//!   is opened between measurements, never during one. A bank that cannot be opened is logged
+//!   and the open one kept.
+//! - **Clean stop.** SIGTERM or SIGINT ends the loop after the measurement in progress.
+
+use super::args::WatchArgs;
+use super::load_calibration;
+use crate::bank::reader::resolve_version;
+use crate::bank::Bank;
+use crate::identify::{Extras, Identifier, Measurement};
+use anyhow::{bail, Context, Result};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// The largest measurement accepted (a 5-sensor, 10 s record at 2.5 kHz is about 2 MB).
+const MAX_MEASUREMENT_BYTES: u64 = 64 << 20;
+
+/// The open bank and the version it is.
+struct Open {
+    version: PathBuf,
+    identifier: Identifier,
+}
+
+fn open(a: &WatchArgs) -> Result<Open> {
+    let version = resolve_version(&a.bank)?;
+    let bank =
+        Bank::open(&version).with_context(|| format!("cannot open bank {}", version.display()))?;
+    let settings = match &a.calibration {
+        Some(p) => load_calibration(Some(p))?.identification.clone(),
+        None => bank.metadata().calibration.identification.clone(),
+    };
+    Ok(Open {
+        version,
+        identifier: Identifier::new(bank, settings)?,
+    })
+}
+
+/// Measurements waiting in the inbox, oldest name first.
+fn waiting(inbox: &Path) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for entry in
+        std::fs::read_dir(inbox).with_context(|| format!("cannot list {}", inbox.display()))?
+    {
+        let entry = entry.with_context(|| format!("cannot list {}", inbox.display()))?;
+        let name = entry.file_name().to_string_lossy().to_string();
+        let is_file = entry.file_type().map(|t| t.is_file()).unwrap_or(false);
+        if is_file && !name.starts_with('.') && name.ends_with(".csv") {
+            out.push(entry.path());
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
+/// Identifies one measurement and writes its result; the verdict line.
+fn identify_one(open: &Open, path: &Path, a: &WatchArgs, out: &Path) -> Result<String> {
+    let size = std::fs::metadata(path)
+        .with_context(|| format!("cannot read {}", path.display()))?
+        .len();
+    if size > MAX_MEASUREMENT_BYTES {
+        bail!(
+            "{}: {size} bytes, more than the {MAX_MEASUREMENT_BYTES} a measurement may have",
+            path.display()
+        );
+    }
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read measurement {}", path.display()))?;
+    let rate = open.identifier.bank().metadata().sensors[0].sample_rate_hz;
+    let m = Measurement::from_csv(path, &text, rate)?;
+    let id = open
+        .identifier
+        .identify(&m, a.sensors.as_deref(), Extras::NONE)?;
+    crate::report::identify::write_identification_json(&id, out)
+        .with_context(|| format!("cannot write the result in {}", out.display()))?;
+    Ok(id.summary.clone())
+}
+
+/// Moves `path` into `dir` (same file system: a rename).
+fn move_into(path: &Path, dir: &Path) -> Result<PathBuf> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let to = dir.join(path.file_name().expect("a listed file has a name"));
+    std::fs::rename(path, &to)
+        .with_context(|| format!("cannot move {} to {}", path.display(), to.display()))?;
+    Ok(to)
+}
+
+fn stamp() -> String {
+    let t = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap_or_default();
+    format!("{:.3}", t.as_secs_f64())
+}
+
+/// Runs the loop until a signal (or, with `--once`, until the inbox is empty).
+pub(super) fn run(a: &WatchArgs) -> Result<()> {
+    let stop = Arc::new(AtomicBool::new(false));
+    for sig in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGINT] {
+        signal_hook::flag::register(sig, Arc::clone(&stop))
+            .context("cannot install the signal handlers")?;
+    }
+    for dir in [&a.inbox, &a.out] {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    let (done, failed) = (a.inbox.join("done"), a.inbox.join("failed"));
+    let mut current = open(a)?;
+    println!(
+        "{} watching {} with bank {} (poll {} ms)",
+        stamp(),
+        a.inbox.display(),
+        current.version.display(),
+        a.poll_ms
+    );
+    let mut seen = 0usize;
+    while !stop.load(Ordering::Relaxed) {
+        let files = waiting(&a.inbox)?;
+        if files.is_empty() {
+            if a.once {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(a.poll_ms));
+        }
+        for path in files {
+            if stop.load(Ordering::Relaxed) {
+                break;
+            }
+            // Between measurements: follow a regenerated bank.
+            match resolve_version(&a.bank) {
+                Ok(v) if v != current.version => match open(a) {
+                    Ok(o) => {
+                        println!("{} bank switched to {}", stamp(), o.version.display());
+                        current = o;
+                    }
+                    Err(e) => println!(
+                        "{} cannot open the new bank {} ({e:#}); keeping {}",
+                        stamp(),
+                        v.display(),
+                        current.version.display()
+                    ),
+                },
+                Ok(_) => {}
+                Err(e) => println!("{} cannot read the bank pointer: {e:#}", stamp()),
+            }
+            let name = path
+                .file_name()
+                .expect("listed")
+                .to_string_lossy()
+                .to_string();
+            let stem = name.trim_end_matches(".csv").to_string();
+            let t = Instant::now();
+            let result = identify_one(&current, &path, a, &a.out.join(&stem));
+            let ms = t.elapsed().as_secs_f64() * 1e3;
+            seen += 1;
+            match result {
+                Ok(verdict) => {
+                    move_into(&path, &done)?;
+                    println!(
+                        "{} {name} ok {ms:.1} ms [{}] {verdict}",
+                        stamp(),
+                        current
+                            .version
+                            .file_name()
+                            .unwrap_or_default()
+                            .to_string_lossy()
+                    );
+                }
+                Err(e) => {
+                    // The reason first, then the input: a failed/ file always has its reason.
+                    std::fs::create_dir_all(&failed)
+                        .with_context(|| format!("cannot create {}", failed.display()))?;
+                    let note = failed.join(format!("{name}.error.txt"));
+                    super::write_file(&note, format!("{e:#}\n").as_bytes())?;
+                    move_into(&path, &failed)?;
+                    println!("{} {name} FAILED {ms:.1} ms: {e:#}", stamp());
+                }
+            }
+        }
+    }
+    println!("{} stopping after {seen} measurements", stamp());
+    Ok(())
+}
