@@ -3,8 +3,8 @@
 use std::path::Path;
 use wheelflat::bank::Bank;
 use wheelflat::identify::aligned::{AlignedPoints, AlignedSettings};
-use wheelflat::identify::coverage::{method_line, severity_class, Judged};
-use wheelflat::identify::{coverage, synth::synthesize, Identifier, Measurement};
+use wheelflat::identify::coverage::{judge, method_line, severity_class, Judged};
+use wheelflat::identify::{coverage, Identifier};
 
 /// (true L0, true class, bank-only, aligned, stage time in ms) of one case.
 type Row = (f64, usize, Judged, Judged, f64);
@@ -55,31 +55,10 @@ fn main() {
     );
     let mut rows: Vec<Row> = Vec::new();
     for (case, flat) in coverage::truths(&cal, cases, seed).iter().enumerate() {
-        let syn = synthesize(&meas_cal, flat, seed.wrapping_add(case as u64), true).unwrap();
-        let m = Measurement::from_csv(Path::new("case.csv"), &syn.csv, cal.output.sample_rate_hz)
-            .unwrap();
+        let (m, t) = coverage::case(&meas_cal, flat, seed, case).unwrap();
         let out = id.identify_aligned(&m, None, &cells, &st, which).unwrap();
-        let t = &syn.truth;
-        let inside = |r: &wheelflat::identify::result::ParamRanges, full: bool| {
-            let ld = r.length_mm[0] <= t.length_mm
-                && t.length_mm <= r.length_mm[1]
-                && r.depth_mm[0] <= t.depth_mm
-                && t.depth_mm <= r.depth_mm[1];
-            ld && (!full
-                || (r.curvature_mm[0] <= t.curvature_mm
-                    && t.curvature_mm <= r.curvature_mm[1]
-                    && r.impact_position_m[0] <= t.impact_position_m
-                    && t.impact_position_m <= r.impact_position_m[1]))
-        };
         let truth_class = severity_class(t.l0_mm, insp, urg);
-        let judge = |r: Option<&wheelflat::identify::result::ParamRanges>, full: bool| match r {
-            Some(r) => (
-                inside(r, full),
-                r.l0_mm,
-                severity_class(r.l0_mm[1], insp, urg),
-            ),
-            None => (false, [f64::NAN, f64::NAN], 2),
-        };
+        let judge = |r, all| judge(r, &t, all, insp, urg);
         let b = judge(out.base.falsifications[0].ranges.as_ref(), false);
         let n = judge(out.ranges.as_ref(), true);
         println!(

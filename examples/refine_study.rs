@@ -8,10 +8,10 @@ use std::path::Path;
 use wheelflat::bank::schema::sensor_axes;
 use wheelflat::bank::Population;
 use wheelflat::identify::cells::Cells;
-use wheelflat::identify::coverage::{method_line, severity_class, Judged};
+use wheelflat::identify::coverage::{judge, method_line, severity_class, Judged};
 use wheelflat::identify::falsify::{falsify, Point, Resolution};
 use wheelflat::identify::result::ParamRanges;
-use wheelflat::identify::{coverage, synth::synthesize, Extras, Identifier, Measurement};
+use wheelflat::identify::{coverage, Extras, Identifier};
 use wheelflat::model::{Flat, Record, Simulator};
 
 /// (true L0, true class, bank-only, refined, refinement time in ms) of one case.
@@ -44,22 +44,9 @@ fn main() {
     let top = Flat::fresh_length_mm(cal.population.depth_mm[1], radius);
     let mut rows: Vec<Row> = Vec::new();
     for (case, flat) in coverage::truths(&cal, cases, seed).iter().enumerate() {
-        let syn = synthesize(&meas_cal, flat, seed.wrapping_add(case as u64), true).unwrap();
-        let m = Measurement::from_csv(Path::new("case.csv"), &syn.csv, cal.output.sample_rate_hz)
-            .unwrap();
-        let t = syn.truth.clone();
+        let (m, t) = coverage::case(&meas_cal, flat, seed, case).unwrap();
         let out = id.identify(&m, None, Extras::NONE).unwrap();
         let base = out.falsifications[0].ranges.clone();
-        let inside = |r: &ParamRanges| {
-            r.length_mm[0] <= t.length_mm
-                && t.length_mm <= r.length_mm[1]
-                && r.depth_mm[0] <= t.depth_mm
-                && t.depth_mm <= r.depth_mm[1]
-                && r.curvature_mm[0] <= t.curvature_mm
-                && t.curvature_mm <= r.curvature_mm[1]
-                && r.impact_position_m[0] <= t.impact_position_m
-                && t.impact_position_m <= r.impact_position_m[1]
-        };
         // Comparison points: (bank axis, sample, measured, low, high).
         let idx: Vec<usize> = if all {
             (0..out.candidates.len()).collect()
@@ -188,10 +175,7 @@ fn main() {
             current = next;
         }
         let ms = t0.elapsed().as_secs_f64() * 1e3;
-        let judge = |r: &Option<ParamRanges>| match r {
-            Some(r) => (inside(r), r.l0_mm, severity_class(r.l0_mm[1], insp, urg)),
-            None => (false, [f64::NAN; 2], 2),
-        };
+        let judge = |r: &Option<ParamRanges>| judge(r.as_ref(), &t, true, insp, urg);
         let (b, n) = (judge(&base), judge(&current));
         println!(
             "{case:>3} L {:6.1} d {:.3} c {:.3} X {:.3} L0 {:5.1} | base {} [{:5.1},{:5.1}] | refined {} [{:5.1},{:5.1}] cls {}/{} survivors {:?} {:.0} ms",

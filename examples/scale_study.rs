@@ -5,9 +5,10 @@
 //! SPLIT: none (paper), rel (all relative sources systematic), cal (train system, track
 //! calibration, sensor accuracy, measurement additional systematic).
 use std::path::Path;
-use wheelflat::identify::coverage::{method_line, severity_class, Judged};
+use wheelflat::identify::coverage::{judge, method_line, severity_class, Judged};
+use wheelflat::identify::result::ParamRanges;
 use wheelflat::identify::uncertainty::CombinedUncertainty;
-use wheelflat::identify::{coverage, synth::synthesize, Extras, Identifier, Measurement};
+use wheelflat::identify::{coverage, Extras, Identifier};
 use wheelflat::model::calibration::{UncertaintyGroup, UncertaintyKind};
 use wheelflat::model::Flat;
 
@@ -82,10 +83,7 @@ fn main() {
     let top = Flat::fresh_length_mm(pop.depth_mm[1], radius);
     let mut rows: Vec<(f64, usize, Judged, Judged, f64, usize)> = Vec::new();
     for (case, flat) in coverage::truths(&cal, cases, seed).iter().enumerate() {
-        let syn = synthesize(&meas_cal, flat, seed.wrapping_add(case as u64), true).unwrap();
-        let m = Measurement::from_csv(Path::new("case.csv"), &syn.csv, cal.output.sample_rate_hz)
-            .unwrap();
-        let t = syn.truth.clone();
+        let (m, t) = coverage::case(&meas_cal, flat, seed, case).unwrap();
         let out = id.identify(&m, None, Extras::NONE).unwrap();
         let t0 = std::time::Instant::now();
         let idx: Vec<usize> = if use_all {
@@ -151,38 +149,19 @@ fn main() {
             }
             [lo.max(clamp[0]), hi.min(clamp[1])]
         };
-        let judged = if survivors.is_empty() {
-            (false, [f64::NAN; 2], 2)
-        } else {
-            let l = span(&params.length_mm, 0, pop.length_mm);
-            let d = span(&params.depth_mm, 1, pop.depth_mm);
-            let c = span(&params.curvature_mm, 2, pop.curvature_mm);
-            let x = span(&params.impact_position_m, 3, pop.impact_position_m);
-            let inside = [
-                (l, t.length_mm),
-                (d, t.depth_mm),
-                (c, t.curvature_mm),
-                (x, t.impact_position_m),
-            ]
-            .iter()
-            .all(|(r, v)| r[0] <= *v && *v <= r[1]);
-            let l0 = [
-                Flat::fresh_length_mm(d[0], radius),
-                Flat::fresh_length_mm(d[1], radius),
-            ];
-            (inside, l0, severity_class(l0[1], insp, urg))
-        };
-        let base = match &out.falsifications[0].ranges {
-            Some(r) => (
-                r.length_mm[0] <= t.length_mm
-                    && t.length_mm <= r.length_mm[1]
-                    && r.depth_mm[0] <= t.depth_mm
-                    && t.depth_mm <= r.depth_mm[1],
-                r.l0_mm,
-                severity_class(r.l0_mm[1], insp, urg),
-            ),
-            None => (false, [f64::NAN; 2], 2),
-        };
+        let ranges = (!survivors.is_empty()).then(|| {
+            let depth_mm = span(&params.depth_mm, 1, pop.depth_mm);
+            ParamRanges {
+                length_mm: span(&params.length_mm, 0, pop.length_mm),
+                depth_mm,
+                curvature_mm: span(&params.curvature_mm, 2, pop.curvature_mm),
+                impact_position_m: span(&params.impact_position_m, 3, pop.impact_position_m),
+                l0_mm: depth_mm.map(|d| Flat::fresh_length_mm(d, radius)),
+                flat_wheels: Vec::new(),
+            }
+        });
+        let judged = judge(ranges.as_ref(), &t, true, insp, urg);
+        let base = judge(out.falsifications[0].ranges.as_ref(), &t, false, insp, urg);
         println!(
             "{case:>3} L {:6.1} d {:.3} c {:.3} X {:.3} L0 {:5.1} | base {} [{:5.1},{:5.1}] | scale {:>5} {} [{:5.1},{:5.1}] cls {}/{} {} pts {:.1} ms",
             t.length_mm, t.depth_mm, t.curvature_mm, t.impact_position_m, t.l0_mm,

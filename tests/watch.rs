@@ -158,7 +158,7 @@ fn watch_identifies_every_file_once_against_one_bank_while_the_bank_is_regenerat
         .arg("--out")
         .arg(&out)
         .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::inherit())
         .spawn()
         .unwrap();
     let log = watcher.stdout.take().unwrap();

@@ -197,25 +197,16 @@ impl Bank {
             })
             .collect::<Result<_, BankError>>()?;
         let files: Vec<ShardFile> = std::iter::once(head).chain(rest).collect();
-        let metadata = Some(bank_meta);
-        let metadata = metadata.ok_or_else(|| BankError::Corrupt {
-            path: version.join(MANIFEST),
-            message: "lists no shard files".into(),
-        })?;
         let instances = files.iter().map(|f| f.rows).sum();
-        let neighbours = match &manifest.neighbours {
-            Some(aux) => Some(read_neighbours(
-                &version,
-                aux,
-                &manifest.bank_id,
-                instances,
-            )?),
-            None => None,
-        };
+        let neighbours = manifest
+            .neighbours
+            .as_ref()
+            .map(|aux| read_neighbours(&version, aux, &manifest.bank_id, instances))
+            .transpose()?;
         Ok(Bank {
             dir: version,
             manifest,
-            metadata,
+            metadata: bank_meta,
             files,
             neighbours,
         })

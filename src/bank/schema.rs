@@ -327,6 +327,19 @@ pub(crate) struct ShardIdentity {
     pub format_version: u32,
 }
 
+/// How footers after a bank's first are parsed: with the first's schema (`first`), without
+/// the column statistics the bank does not write.
+pub fn sibling_footer_options(
+    first: &ArrowReaderMetadata,
+) -> parquet::file::metadata::ParquetMetaDataOptions {
+    use parquet::file::metadata::{ParquetMetaDataOptions, ParquetStatisticsPolicy};
+    ParquetMetaDataOptions::new()
+        .with_schema(first.metadata().file_metadata().schema_descr_ptr())
+        .with_encoding_stats_policy(ParquetStatisticsPolicy::SkipAll)
+        .with_column_stats_policy(ParquetStatisticsPolicy::SkipAll)
+        .with_size_stats_policy(ParquetStatisticsPolicy::SkipAll)
+}
+
 /// Opens a shard of a bank whose first shard is already open (`first`): its footer is parsed
 /// with the first shard's schema (every shard of a bank has the same columns; a footer whose
 /// columns do not match fails to parse) and without the column statistics the bank does not
@@ -336,17 +349,9 @@ pub(crate) fn open_sibling_shard(
     path: &Path,
     first: &ArrowReaderMetadata,
 ) -> Result<(Bytes, ArrowReaderMetadata, ShardIdentity), BankError> {
-    use parquet::file::metadata::{
-        ParquetMetaDataOptions, ParquetMetaDataReader, ParquetStatisticsPolicy,
-    };
     let bytes = map(path)?;
-    let options = ParquetMetaDataOptions::new()
-        .with_schema(first.metadata().file_metadata().schema_descr_ptr())
-        .with_encoding_stats_policy(ParquetStatisticsPolicy::SkipAll)
-        .with_column_stats_policy(ParquetStatisticsPolicy::SkipAll)
-        .with_size_stats_policy(ParquetStatisticsPolicy::SkipAll);
-    let parsed = ParquetMetaDataReader::new()
-        .with_metadata_options(Some(options))
+    let parsed = parquet::file::metadata::ParquetMetaDataReader::new()
+        .with_metadata_options(Some(sibling_footer_options(first)))
         .parse_and_finish(&bytes)
         .map_err(parquet_err(path))?;
     let kv = bank_metadata_text(path, parsed.file_metadata())?;

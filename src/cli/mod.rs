@@ -111,15 +111,27 @@ fn open_identifier(
     measured: &Path,
     calibration: Option<&Path>,
 ) -> Result<(Identifier, Measurement)> {
+    let identifier = open_bank_identifier(bank_dir, calibration)?;
+    let m = read_measurement(&identifier, measured)?;
+    Ok((identifier, m))
+}
+
+/// Opens a bank (a bank directory or a version directory) for identification, with the
+/// settings and uncertainty table of `calibration` when given, else the bank's.
+fn open_bank_identifier(bank_dir: &Path, calibration: Option<&Path>) -> Result<Identifier> {
     let bank =
         Bank::open(bank_dir).with_context(|| format!("cannot open bank {}", bank_dir.display()))?;
     let settings = match calibration {
         Some(p) => load_calibration(Some(p))?.identification.clone(),
         None => bank.metadata().calibration.identification.clone(),
     };
-    let rate = bank.metadata().sensors[0].sample_rate_hz;
-    let text = std::fs::read_to_string(measured)
-        .with_context(|| format!("cannot read measurement {}", measured.display()))?;
-    let m = Measurement::from_csv(measured, &text, rate)?;
-    Ok((Identifier::new(bank, settings)?, m))
+    Ok(Identifier::new(bank, settings)?)
+}
+
+/// Reads a measurement on the sample rate of the identifier's bank.
+fn read_measurement(identifier: &Identifier, path: &Path) -> Result<Measurement> {
+    let rate = identifier.bank().metadata().sensors[0].sample_rate_hz;
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read measurement {}", path.display()))?;
+    Ok(Measurement::from_csv(path, &text, rate)?)
 }

@@ -15,10 +15,8 @@
 //! - **Clean stop.** SIGTERM or SIGINT ends the loop after the measurement in progress.
 
 use super::args::WatchArgs;
-use super::load_calibration;
 use crate::bank::reader::resolve_version;
-use crate::bank::Bank;
-use crate::identify::{Extras, Identifier, Measurement};
+use crate::identify::{Extras, Identifier};
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -36,15 +34,10 @@ struct Open {
 
 fn open(a: &WatchArgs) -> Result<Open> {
     let version = resolve_version(&a.bank)?;
-    let bank =
-        Bank::open(&version).with_context(|| format!("cannot open bank {}", version.display()))?;
-    let settings = match &a.calibration {
-        Some(p) => load_calibration(Some(p))?.identification.clone(),
-        None => bank.metadata().calibration.identification.clone(),
-    };
+    let identifier = super::open_bank_identifier(&version, a.calibration.as_deref())?;
     Ok(Open {
         version,
-        identifier: Identifier::new(bank, settings)?,
+        identifier,
     })
 }
 
@@ -76,10 +69,7 @@ fn identify_one(open: &Open, path: &Path, a: &WatchArgs, out: &Path) -> Result<S
             path.display()
         );
     }
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read measurement {}", path.display()))?;
-    let rate = open.identifier.bank().metadata().sensors[0].sample_rate_hz;
-    let m = Measurement::from_csv(path, &text, rate)?;
+    let m = super::read_measurement(&open.identifier, path)?;
     let id = open
         .identifier
         .identify(&m, a.sensors.as_deref(), Extras::NONE)?;

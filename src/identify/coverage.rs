@@ -2,7 +2,8 @@
 //! how often the truth lies inside the candidate model set's ranges (EDMF promises φ), how
 //! wide those ranges are, and the same for the baselines.
 
-use super::synth::synthesize;
+use super::result::ParamRanges;
+use super::synth::{synthesize, Truth};
 use super::{Extras, Identifier, IdentifyError, Measurement};
 use crate::bank::Population;
 use crate::model::{CheckedCalibration, Flat};
@@ -46,6 +47,34 @@ pub fn truths(cal: &CheckedCalibration, cases: usize, seed: u64) -> Vec<Flat> {
         .collect()
 }
 
+/// One seeded case: the measurement of `flat` simulated with `model` and perturbed per the
+/// uncertainty table (seed `seed + case`), read at the model's sample rate, and its truth.
+pub fn case(
+    model: &CheckedCalibration,
+    flat: &Flat,
+    seed: u64,
+    case: usize,
+) -> Result<(Measurement, Truth), IdentifyError> {
+    let syn = synthesize(model, flat, seed.wrapping_add(case as u64), true)
+        .map_err(|e| IdentifyError::Invalid(e.to_string()))?;
+    let m = Measurement::from_csv(
+        Path::new(&format!("case-{case}.csv")),
+        &syn.csv,
+        model.output.sample_rate_hz,
+    )?;
+    Ok((m, syn.truth))
+}
+
+/// Whether `r` holds the truth: its L and d, and with `all` also its c and X_p.
+pub fn holds_truth(r: &ParamRanges, t: &Truth, all: bool) -> bool {
+    let within = |b: [f64; 2], v: f64| b[0] <= v && v <= b[1];
+    within(r.length_mm, t.length_mm)
+        && within(r.depth_mm, t.depth_mm)
+        && (!all
+            || (within(r.curvature_mm, t.curvature_mm)
+                && within(r.impact_position_m, t.impact_position_m)))
+}
+
 /// Runs the study; `cal` is the bank's calibration (with the uncertainty table to perturb by).
 pub fn run(
     identifier: &Identifier,
@@ -54,12 +83,9 @@ pub fn run(
     seed: u64,
     baselines: bool,
 ) -> Result<Vec<CaseResult>, IdentifyError> {
-    let rate = cal.output.sample_rate_hz;
     let mut out = Vec::with_capacity(cases);
-    for (case, flat) in truths(cal, cases, seed).iter().enumerate() {
-        let syn = synthesize(cal, flat, seed.wrapping_add(case as u64), true)
-            .map_err(|e| IdentifyError::Invalid(e.to_string()))?;
-        let m = Measurement::from_csv(Path::new(&format!("case-{case}.csv")), &syn.csv, rate)?;
+    for (k, flat) in truths(cal, cases, seed).iter().enumerate() {
+        let (m, t) = case(cal, flat, seed, k)?;
         let id = identifier.identify(
             &m,
             None,
@@ -68,15 +94,7 @@ pub fn run(
                 curves: false,
             },
         )?;
-        let t = &syn.truth;
-        let inside = |r: Option<&super::result::ParamRanges>| {
-            r.is_some_and(|r| {
-                r.length_mm[0] <= t.length_mm
-                    && t.length_mm <= r.length_mm[1]
-                    && r.depth_mm[0] <= t.depth_mm
-                    && t.depth_mm <= r.depth_mm[1]
-            })
-        };
+        let inside = |r: Option<&ParamRanges>| r.is_some_and(|r| holds_truth(r, &t, false));
         let judge = |f: Option<&super::result::Falsification>| match f {
             Some(f) => (
                 f.cms_count,
@@ -86,7 +104,7 @@ pub fn run(
             None => (0, false, None),
         };
         out.push(CaseResult {
-            case,
+            case: k,
             truth: [t.length_mm, t.depth_mm, t.impact_position_m, t.l0_mm],
             eip: judge(id.falsifications.first()),
             equidistant: judge(
@@ -128,6 +146,25 @@ pub fn summarise(
 /// (NaN when every instance is falsified), and the severity class it calls (0 monitor,
 /// 1 inspect, 2 urgent; an empty answer calls urgent).
 pub type Judged = (bool, [f64; 2], usize);
+
+/// A method's answer judged against the truth (`all`: c and X_p must be inside too; an empty
+/// answer holds nothing and calls urgent).
+pub fn judge(
+    r: Option<&ParamRanges>,
+    t: &Truth,
+    all: bool,
+    inspect_mm: f64,
+    urgent_mm: f64,
+) -> Judged {
+    match r {
+        Some(r) => (
+            holds_truth(r, t, all),
+            r.l0_mm,
+            severity_class(r.l0_mm[1], inspect_mm, urgent_mm),
+        ),
+        None => (false, [f64::NAN; 2], 2),
+    }
+}
 
 /// The severity class of an L0 (0 monitor, 1 inspect, 2 urgent) with the settings' limits.
 pub fn severity_class(l0_mm: f64, inspect_mm: f64, urgent_mm: f64) -> usize {

@@ -93,12 +93,19 @@ impl CombinedUncertainty {
 
     /// The sorted samples of `U_c` at grid row `i`.
     fn row(&self, i: usize) -> &[f64] {
-        self.sorted[i].get_or_init(|| {
-            let y = self.grid_kn[i];
-            let mut u: Vec<f64> = self.s.iter().zip(&self.t).map(|(s, t)| y * s + t).collect();
-            u.sort_by(f64::total_cmp);
-            u
-        })
+        self.sorted[i].get_or_init(|| self.sorted_at(self.grid_kn[i]))
+    }
+
+    /// The samples of `U_c = y·S − T` at force `y_kn`, sorted.
+    fn sorted_at(&self, y_kn: f64) -> Vec<f64> {
+        let mut u: Vec<f64> = self
+            .s
+            .iter()
+            .zip(&self.t)
+            .map(|(s, t)| y_kn * s + t)
+            .collect();
+        u.sort_by(f64::total_cmp);
+        u
     }
 
     /// The shortest interval of row `i` holding probability `p`.
@@ -119,14 +126,7 @@ impl CombinedUncertainty {
     /// Thresholds from a direct sort of the samples at `y_kn` (no grid interpolation): slower,
     /// for audits and for checking the grid.
     pub fn thresholds_exact(&self, y_kn: f64, p: f64) -> (f64, f64) {
-        let mut u: Vec<f64> = self
-            .s
-            .iter()
-            .zip(&self.t)
-            .map(|(s, t)| y_kn * s + t)
-            .collect();
-        u.sort_by(f64::total_cmp);
-        shortest_interval(&u, p)
+        shortest_interval(&self.sorted_at(y_kn), p)
     }
 
     /// Thresholds `[low, high]` on `prediction − measurement` (kN) at a point where the force
