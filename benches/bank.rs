@@ -51,10 +51,10 @@ fn bench_bank(c: &mut Criterion) {
         .map(|j| bank.sample_index(j % sensors, (j * 7919 + 13) % samples))
         .collect();
     let name = format!("read_60_columns_{}_instances", bank.instances());
-    let mut buffers = Vec::new();
+    let mut buffer = vec![0.0f32; cols.len() * bank.instances()];
     c.bench_function(&name, |b| {
         b.iter(|| {
-            bank.read_columns_into(black_box(&cols), &mut buffers)
+            bank.read_columns_flat(black_box(&cols), &mut buffer)
                 .unwrap()
         })
     });

@@ -17,11 +17,10 @@ fn main() {
         .map(|j| bank.sample_index(j % sensors, (j * 7919 + 13) % samples))
         .collect();
     let mut times = Vec::new();
-    let mut v = Vec::new();
+    let mut v = vec![0.0f32; cols.len() * bank.instances()];
     for _ in 0..21 {
         let t = Instant::now();
-        bank.read_columns_into(&cols, &mut v).expect("read");
-        assert_eq!(v[0].len(), bank.instances());
+        bank.read_columns_flat(&cols, &mut v).expect("read");
         times.push(t.elapsed().as_secs_f64() * 1e3);
     }
     times.sort_by(f64::total_cmp);

@@ -40,8 +40,8 @@ fn same_inputs_give_identical_bytes_with_one_or_two_threads() {
     let (sa, sb) = (files(a.path(), &[]), files(b.path(), &[]));
     assert_eq!(
         sa.len(),
-        3 + 3,
-        "3 shard files + neighbour graph + manifest + CURRENT"
+        3 + 4,
+        "3 shard files + neighbour graph + column layout + manifest + CURRENT"
     );
     assert!(sa == sb, "banks differ between 1 and 2 threads");
 }

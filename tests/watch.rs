@@ -332,3 +332,71 @@ fn watch_identifies_every_file_once_against_one_bank_while_the_bank_is_regenerat
     );
     assert_eq!(used.len(), 2);
 }
+
+#[test]
+fn watch_identifies_a_train_pass_from_its_recording_and_trigger_file() {
+    // A small train-profile bank: the result's quality is tests/train.rs's; here, the pairing,
+    // the output and the moves.
+    let mut c = wheelflat::model::Calibration::train_profile();
+    c.output.window_samples = 600;
+    c.population.length_mm = [40.0, 100.0];
+    c.population.depth_mm = [0.25, 0.85];
+    c.population.curvature_mm = [0.0, 0.25];
+    let cal = c.check().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let bank_dir = dir.path().join("bank");
+    bank::generate(&cal, &bank_dir, &common::options(400, 200), &Quiet).unwrap();
+    let syn = wheelflat::train::synthesize_train(
+        &cal,
+        &wheelflat::train::TrainSpec::twelve_bogies(wheelflat::train::default_flats(), 4),
+    )
+    .unwrap();
+    let inbox = dir.path().join("inbox");
+    let out = dir.path().join("out");
+    std::fs::create_dir_all(&inbox).unwrap();
+    // The trigger file first, then the recording; a broken pair; a trigger file still waiting
+    // for its recording.
+    drop_file(&inbox, "pass.triggers.csv", &syn.triggers_csv);
+    drop_file(&inbox, "pass.csv", &syn.csv);
+    drop_file(&inbox, "broken.triggers.csv", "time_s\n1.0\nabc\n");
+    drop_file(&inbox, "broken.csv", &syn.csv);
+    drop_file(&inbox, "later.triggers.csv", &syn.triggers_csv);
+    let run = wheelflat()
+        .args(["watch", "--once", "--bank"])
+        .arg(&bank_dir)
+        .arg("--inbox")
+        .arg(&inbox)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{log}");
+    assert!(
+        log.contains("pass.csv ok") && log.contains("train of 12 bogies"),
+        "{log}"
+    );
+    let result: wheelflat::train::TrainResult =
+        serde_json::from_str(&std::fs::read_to_string(out.join("pass/train.json")).unwrap())
+            .unwrap();
+    assert_eq!(result.wheels.len(), 24);
+    assert!(out.join("pass/train.csv").is_file() && out.join("pass/train.html").is_file());
+    assert_eq!(
+        names_in(&inbox.join("done")),
+        vec!["pass.csv", "pass.triggers.csv"]
+    );
+    assert_eq!(
+        names_in(&inbox.join("failed")),
+        vec!["broken.csv", "broken.csv.error.txt", "broken.triggers.csv"]
+    );
+    let why = std::fs::read_to_string(inbox.join("failed/broken.csv.error.txt")).unwrap();
+    assert!(why.contains("broken.triggers.csv"), "{why}");
+    assert!(
+        !out.join("broken").exists(),
+        "no partial output for a failed pass"
+    );
+    assert_eq!(
+        names_in(&inbox),
+        vec!["done", "failed", "later.triggers.csv"]
+    );
+}

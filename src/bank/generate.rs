@@ -9,6 +9,7 @@
 //! DIR/v-<bank id>/shard-00000-of-00020.parquet
 //! DIR/v-<bank id>/...
 //! DIR/v-<bank id>/neighbours.bin   the instances' neighbour graph (bank::neighbours)
+//! DIR/v-<bank id>/layout.bin       where each column's values lie (bank::layout; plain banks)
 //! DIR/v-<bank id>/manifest.json    written last, with every file's size and SHA-256
 //! ```
 //!
@@ -16,11 +17,13 @@
 //! storage format, generator and model revision), so a changed calibration builds a new version
 //! beside the old one, and a rerun of the same arguments finds its own unfinished version.
 
+use super::layout::{Derived, Layout, LAYOUT_FILE};
 use super::neighbours::{neighbour_graph, NEIGHBOURS_FILE};
 use super::population::Population;
 use super::schema::{
-    bank_id, calibration_sha256, sensor_axes, sha256_hex, shard_matches, BankMetadata, Manifest,
-    ManifestAux, ManifestFile, Parameters, ShardInfo, FORMAT_VERSION, MODEL_REVISION,
+    bank_id, bank_metadata_text, calibration_sha256, open_shard, sensor_axes, sha256_hex,
+    shard_matches, BankMetadata, Manifest, ManifestAux, ManifestFile, Parameters, ShardInfo,
+    FORMAT_VERSION, MODEL_REVISION,
 };
 pub use super::schema::{shard_file_name, CURRENT, MANIFEST};
 use super::writer::{write_shard, InstanceRow, StorageFormat};
@@ -69,10 +72,13 @@ impl GenerateObserver for Quiet {
 /// What a generate call did.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Outcome {
-    /// `CURRENT` already names a complete bank of these arguments; nothing was done.
+    /// `CURRENT` already names a complete bank of these arguments; nothing was simulated.
     UpToDate {
         /// The version directory.
         version: PathBuf,
+        /// Whether files a newer wheelflat stores beside the shards (neighbour graph, column
+        /// layout) were added to it.
+        upgraded: bool,
     },
     /// The bank is complete and `CURRENT` points at it.
     Complete {
@@ -140,21 +146,81 @@ fn write_neighbours(
     })
 }
 
-/// A complete version written before the graph was stored gets it now: the graph, then the
-/// manifest rewritten atomically with its entry (readers see the old or the new manifest, and
-/// either describes files that are in place).
-fn add_missing_neighbours(
+/// The version's `layout.bin` ([`super::layout`]) from its shard files (`files`, in manifest
+/// order), written atomically; its manifest entry, or `None` for a bank stored so that no
+/// layout applies (compressed or byte-stream-split).
+fn write_layout(
+    version: &Path,
+    id: &str,
+    files: &[ManifestFile],
+) -> Result<Option<ManifestAux>, BankError> {
+    let derived: Vec<(Derived, Option<String>)> = files
+        .par_iter()
+        .enumerate()
+        .map(|(i, f)| {
+            let path = version.join(&f.name);
+            let (bytes, meta, _) = open_shard(&path)?;
+            let text = (i == 0)
+                .then(|| bank_metadata_text(&path, meta.metadata().file_metadata()))
+                .transpose()?;
+            Ok((super::layout::derive(&path, &bytes, &meta)?, text))
+        })
+        .collect::<Result<_, BankError>>()?;
+    let mut shards = Vec::with_capacity(files.len());
+    let mut widths: Option<Vec<u8>> = None;
+    let mut metadata_json = String::new();
+    for (derived, text) in derived {
+        let Derived::Layout(shard, w) = derived else {
+            return Ok(None);
+        };
+        if widths.as_ref().is_some_and(|first| *first != w) {
+            return Ok(None);
+        }
+        widths = Some(w);
+        shards.push(shard);
+        if let Some(t) = text {
+            metadata_json = t;
+        }
+    }
+    let layout = Layout {
+        bank_id: id.to_string(),
+        metadata_json,
+        widths: widths.unwrap_or_default(),
+        shards,
+    };
+    let bytes = layout.encode();
+    write_file_atomically(&version.join(LAYOUT_FILE), &bytes)?;
+    Ok(Some(ManifestAux {
+        name: LAYOUT_FILE.into(),
+        bytes: bytes.len() as u64,
+        sha256: sha256_hex(&bytes),
+    }))
+}
+
+/// A complete version written before the graph or the layout was stored gets them now: the
+/// files, then the manifest rewritten atomically with their entries (readers see the old or
+/// the new manifest, and either describes files that are in place). Returns whether anything
+/// was added.
+fn add_missing_aux(
     version: &Path,
     cal: &CheckedCalibration,
     opts: &GenerateOptions,
-) -> Result<(), BankError> {
+) -> Result<bool, BankError> {
     let mut manifest = super::reader::read_manifest(version)?;
-    if manifest.neighbours.is_some() {
-        return Ok(());
+    let mut added = false;
+    if manifest.neighbours.is_none() {
+        manifest.neighbours = Some(write_neighbours(version, &manifest.bank_id, cal, opts)?);
+        added = true;
     }
-    manifest.neighbours = Some(write_neighbours(version, &manifest.bank_id, cal, opts)?);
-    let json = serde_json::to_string_pretty(&manifest).expect("manifest serialises");
-    write_file_atomically(&version.join(MANIFEST), json.as_bytes())
+    if manifest.layout.is_none() {
+        manifest.layout = write_layout(version, &manifest.bank_id, &manifest.files)?;
+        added |= manifest.layout.is_some();
+    }
+    if added {
+        let json = serde_json::to_string_pretty(&manifest).expect("manifest serialises");
+        write_file_atomically(&version.join(MANIFEST), json.as_bytes())?;
+    }
+    Ok(added)
 }
 
 /// The bank id of a generate call with these arguments.
@@ -198,8 +264,8 @@ pub fn generate(
     if opts.machine_shard.is_none() {
         let current = std::fs::read_to_string(&current_path).unwrap_or_default();
         if current.trim() == version_name && version.join(MANIFEST).is_file() {
-            add_missing_neighbours(&version, cal, opts)?;
-            return Ok(Outcome::UpToDate { version });
+            let upgraded = add_missing_aux(&version, cal, opts)?;
+            return Ok(Outcome::UpToDate { version, upgraded });
         }
     }
     std::fs::create_dir_all(&version).map_err(io_err(&version))?;
@@ -385,6 +451,7 @@ pub fn generate(
         });
     }
     let neighbours = write_neighbours(&version, &id, cal, opts)?;
+    let layout = write_layout(&version, &id, &entries)?;
     let manifest = Manifest {
         format_version: FORMAT_VERSION,
         bank_id: id,
@@ -393,6 +460,7 @@ pub fn generate(
         instances: opts.instances,
         files: entries,
         neighbours: Some(neighbours),
+        layout,
     };
     let json = serde_json::to_string_pretty(&manifest).expect("manifest serialises");
     write_file_atomically(&version.join(MANIFEST), json.as_bytes())?;

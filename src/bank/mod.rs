@@ -9,19 +9,24 @@
 //! - [`reader`]: memory-mapped reading of projected columns; verification.
 //! - [`info`]: a bank's size and parameter ranges.
 //! - [`neighbours`]: the instances' neighbour graph, built at generation, stored with the bank.
+//! - [`layout`]: where every column's values lie in the shards, so a reader skips the footers.
+//! - [`verify`]: every file checked against the manifest in full.
 
 pub mod generate;
 pub mod info;
+pub mod layout;
 pub mod neighbours;
 pub mod population;
 pub mod reader;
 pub mod schema;
+pub mod verify;
 pub mod writer;
 
 pub use generate::{generate, GenerateObserver, GenerateOptions, Outcome, Quiet};
 pub use population::{FlatSample, Population};
-pub use reader::{verify, Bank, Parameters, StoredInstance, VerifyProblem};
+pub use reader::{Bank, Parameters, StoredInstance};
 pub use schema::{BankMetadata, Manifest};
+pub use verify::{verify, VerifyProblem};
 pub use writer::{Codec, StorageFormat, ValueEncoding};
 
 use std::path::PathBuf;

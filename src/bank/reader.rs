@@ -1,13 +1,18 @@
 //! The memory-mapped bank reader: the identifier's hot path.
 //!
-//! [`Bank::open`] maps every shard file (`memmap2`, wrapped in `bytes::Bytes` without a copy)
-//! and parses each footer once. [`Bank::read_columns`] then decodes only the projected columns
-//! (`ProjectionMask`) straight from the mapped pages.
+//! [`Bank::open`] maps every shard file (`memmap2`, wrapped in `bytes::Bytes` without a copy).
+//! A bank with a column layout ([`super::layout`], the default) is then read without parsing
+//! any footer: a column is a checked slice of the mapped file. Other banks (compressed,
+//! byte-stream-split, or written before the layout was stored) have each footer parsed once,
+//! and [`Bank::read_columns`] decodes only the projected columns (`ProjectionMask`) from the
+//! mapped pages.
 
+use super::layout::{f32_values, f64_values, u32_values, Layout};
 pub use super::schema::Parameters;
 use super::schema::{
-    open_shard, open_sibling_shard, parquet_err, sha256_hex, BankMetadata, Manifest, ManifestAux,
-    ManifestFile, CURRENT, FORMAT_VERSION, MANIFEST, PARAMETER_COLUMNS,
+    map, open_shard, open_sibling_shard, parquet_err, parse_bank_metadata, sha256_hex,
+    BankMetadata, Manifest, ManifestAux, ManifestFile, CURRENT, FORMAT_VERSION, MANIFEST,
+    PARAMETER_COLUMNS,
 };
 use super::BankError;
 use arrow_array::{Array, Float32Array, Float64Array, UInt32Array};
@@ -25,17 +30,22 @@ use std::path::{Path, PathBuf};
 struct ShardFile {
     path: PathBuf,
     bytes: Bytes,
-    meta: ArrowReaderMetadata,
+    /// The parsed footer; `None` when the bank is read through its layout.
+    meta: Option<ArrowReaderMetadata>,
     rows: usize,
 }
 
 impl ShardFile {
     /// A reader of the columns `sorted` (ascending schema indices), all rows in one batch,
-    /// decoding straight from the mapped bytes.
-    fn projected(&self, sorted: &[usize]) -> Result<ParquetRecordBatchReader, BankError> {
-        let schema = self.meta.metadata().file_metadata().schema_descr();
+    /// decoding straight from the mapped bytes (banks without a layout).
+    fn projected(
+        &self,
+        meta: &ArrowReaderMetadata,
+        sorted: &[usize],
+    ) -> Result<ParquetRecordBatchReader, BankError> {
+        let schema = meta.metadata().file_metadata().schema_descr();
         let mask = ProjectionMask::roots(schema, sorted.iter().copied());
-        ParquetRecordBatchReaderBuilder::new_with_metadata(self.bytes.clone(), self.meta.clone())
+        ParquetRecordBatchReaderBuilder::new_with_metadata(self.bytes.clone(), meta.clone())
             .with_projection(mask)
             .with_batch_size(self.rows.max(1))
             .build()
@@ -52,6 +62,8 @@ pub struct Bank {
     files: Vec<ShardFile>,
     /// The stored neighbour graph, checked at open (`None` for banks written without one).
     neighbours: Option<Vec<u32>>,
+    /// The column layout, checked at open (`None`: read through the footers).
+    layout: Option<Layout>,
 }
 
 /// One instance as stored: its parameter columns and its force series.
@@ -87,12 +99,44 @@ pub fn resolve_version(dir: &Path) -> Result<PathBuf, BankError> {
 
 /// Reads the neighbour graph a manifest lists and checks it: size and SHA-256 against the
 /// manifest, header against the bank.
-fn read_neighbours(
+pub(crate) fn read_neighbours(
     version: &Path,
     aux: &ManifestAux,
     bank_id: &str,
     instances: usize,
 ) -> Result<Vec<u32>, BankError> {
+    let (path, bytes) = read_aux(version, aux)?;
+    super::neighbours::decode(&path, &bytes, bank_id, instances)
+}
+
+/// Reads the column layout a manifest lists and checks it against the manifest: size,
+/// SHA-256, bank id, and every shard's rows and size.
+pub(crate) fn read_layout(
+    version: &Path,
+    manifest: &Manifest,
+) -> Result<Option<Layout>, BankError> {
+    let Some(aux) = &manifest.layout else {
+        return Ok(None);
+    };
+    let (path, bytes) = read_aux(version, aux)?;
+    let layout = Layout::decode(&path, &bytes, &manifest.bank_id)?;
+    let columns_match = manifest.files.len() == layout.shards.len()
+        && manifest
+            .files
+            .iter()
+            .zip(&layout.shards)
+            .all(|(f, s)| f.rows == s.rows && f.bytes == s.file_bytes);
+    if !columns_match {
+        return Err(BankError::Corrupt {
+            path,
+            message: "its shards' rows or sizes differ from the manifest's".into(),
+        });
+    }
+    Ok(Some(layout))
+}
+
+/// Reads a file the manifest lists beside the shards, checked against its size and SHA-256.
+fn read_aux(version: &Path, aux: &ManifestAux) -> Result<(PathBuf, Vec<u8>), BankError> {
     let path = version.join(&aux.name);
     let bytes = std::fs::read(&path).map_err(|source| BankError::Io {
         path: path.clone(),
@@ -111,7 +155,7 @@ fn read_neighbours(
             message: format!("sha256 {sum}, the manifest says {}", aux.sha256),
         });
     }
-    super::neighbours::decode(&path, &bytes, bank_id, instances)
+    Ok((path, bytes))
 }
 
 /// Reads a version directory's manifest.
@@ -139,15 +183,18 @@ impl Bank {
                 message: "lists no shard files".into(),
             });
         };
-        // The first shard in full (the bank's metadata and schema), the others against it, in
-        // parallel; each checked against the manifest before it is used.
-        let check = |path: &Path, bytes: &Bytes, f: &ManifestFile, id: &str, format: u32| {
+        // Every file is checked against the manifest before it is used: its size, the bank id
+        // and format its metadata states.
+        let check_size = |path: &Path, bytes: &Bytes, f: &ManifestFile| {
             if bytes.len() as u64 != f.bytes {
                 return Err(BankError::Corrupt {
                     path: path.to_path_buf(),
                     message: format!("{} bytes, the manifest says {}", bytes.len(), f.bytes),
                 });
             }
+            Ok(())
+        };
+        let check_identity = |path: &Path, id: &str, format: u32| {
             if id != manifest.bank_id {
                 return Err(BankError::Corrupt {
                     path: path.to_path_buf(),
@@ -167,36 +214,80 @@ impl Bank {
             }
             Ok(())
         };
-        let path = version.join(&first.name);
-        let (bytes, meta, bank_meta) = open_shard(&path)?;
-        check(
-            &path,
-            &bytes,
-            first,
-            &bank_meta.bank_id,
-            bank_meta.format_version,
-        )?;
-        let head = ShardFile {
-            path,
-            bytes,
-            meta,
-            rows: first.rows,
-        };
-        let rest: Vec<ShardFile> = manifest.files[1..]
-            .par_iter()
-            .map(|f| {
-                let path = version.join(&f.name);
-                let (bytes, meta, identity) = open_sibling_shard(&path, &head.meta)?;
-                check(&path, &bytes, f, &identity.bank_id, identity.format_version)?;
-                Ok(ShardFile {
+        let layout = read_layout(&version, &manifest)?;
+        let (bank_meta, files) = match &layout {
+            Some(layout) => {
+                // No footer: the metadata from the layout, every file checked against it.
+                let path = version.join(&manifest.layout.as_ref().expect("listed").name);
+                let bank_meta = parse_bank_metadata(&path, &layout.metadata_json)?;
+                check_identity(&path, &bank_meta.bank_id, bank_meta.format_version)?;
+                let samples: usize = bank_meta.sensors.iter().map(|a| a.samples).sum();
+                let widths_match = layout.widths.len() == 1 + PARAMETER_COLUMNS.len() + samples
+                    && layout.widths.iter().enumerate().all(|(j, &w)| {
+                        w == if (1..=PARAMETER_COLUMNS.len()).contains(&j) {
+                            8
+                        } else {
+                            4
+                        }
+                    });
+                if !widths_match {
+                    return Err(BankError::Corrupt {
+                        path,
+                        message: format!(
+                            "{} columns do not match the bank's instance, {} parameter and {samples} sample columns",
+                            layout.widths.len(),
+                            PARAMETER_COLUMNS.len()
+                        ),
+                    });
+                }
+                let files = manifest
+                    .files
+                    .par_iter()
+                    .enumerate()
+                    .map(|(i, f)| {
+                        let path = version.join(&f.name);
+                        let bytes = map(&path)?;
+                        check_size(&path, &bytes, f)?;
+                        layout.check_file(i, &path, &bytes)?;
+                        Ok(ShardFile {
+                            path,
+                            bytes,
+                            meta: None,
+                            rows: f.rows,
+                        })
+                    })
+                    .collect::<Result<Vec<_>, BankError>>()?;
+                (bank_meta, files)
+            }
+            None => {
+                let path = version.join(&first.name);
+                let (bytes, meta, bank_meta) = open_shard(&path)?;
+                check_size(&path, &bytes, first)?;
+                check_identity(&path, &bank_meta.bank_id, bank_meta.format_version)?;
+                let rest: Vec<ShardFile> = manifest.files[1..]
+                    .par_iter()
+                    .map(|f| {
+                        let path = version.join(&f.name);
+                        let (bytes, meta, identity) = open_sibling_shard(&path, &meta)?;
+                        check_size(&path, &bytes, f)?;
+                        check_identity(&path, &identity.bank_id, identity.format_version)?;
+                        Ok(ShardFile {
+                            path,
+                            bytes,
+                            meta: Some(meta),
+                            rows: f.rows,
+                        })
+                    })
+                    .collect::<Result<_, BankError>>()?;
+                let head = ShardFile {
                     path,
                     bytes,
-                    meta,
-                    rows: f.rows,
-                })
-            })
-            .collect::<Result<_, BankError>>()?;
-        let files: Vec<ShardFile> = std::iter::once(head).chain(rest).collect();
+                    meta: Some(meta),
+                    rows: first.rows,
+                };
+                (bank_meta, std::iter::once(head).chain(rest).collect())
+            }
+        };
         let instances = files.iter().map(|f| f.rows).sum();
         let neighbours = manifest
             .neighbours
@@ -209,6 +300,7 @@ impl Bank {
             metadata: bank_meta,
             files,
             neighbours,
+            layout,
         })
     }
 
@@ -238,16 +330,23 @@ impl Bank {
         self.files.iter().map(|f| f.rows).sum()
     }
 
-    /// Schema index of a column name.
-    pub fn column_index(&self, name: &str) -> Option<usize> {
-        self.files[0].meta.schema().index_of(name).ok()
-    }
-
     /// Schema index of sample `k` of sensor number `s`.
     pub fn sample_index(&self, s: usize, k: usize) -> usize {
         super::schema::sample_column_index(&self.metadata.sensors, s, k)
     }
 
+    /// A shard's parsed footer (banks without a layout have every footer parsed at open).
+    fn footer<'a>(&self, file: &'a ShardFile) -> Result<&'a ArrowReaderMetadata, BankError> {
+        file.meta.as_ref().ok_or_else(|| {
+            BankError::Invalid(format!(
+                "{}: read through the layout, its footer was not parsed",
+                file.path.display()
+            ))
+        })
+    }
+
+    /// Decodes the columns `indices` of every shard through the footers, handing each to
+    /// `sink` (banks without a layout).
     fn read_projected<F: FnMut(usize, &dyn Array)>(
         &self,
         indices: &[usize],
@@ -257,7 +356,7 @@ impl Bank {
         sorted.sort_unstable();
         sorted.dedup();
         for file in &self.files {
-            let reader = file.projected(&sorted)?;
+            let reader = file.projected(self.footer(file)?, &sorted)?;
             for batch in reader {
                 let batch = batch.map_err(|e| BankError::Corrupt {
                     path: file.path.clone(),
@@ -275,50 +374,99 @@ impl Bank {
     /// column, in the order asked, each in instance order. Allocates the result; see
     /// [`Bank::read_columns_into`] for the hot path.
     pub fn read_columns(&self, indices: &[usize]) -> Result<Vec<Vec<f32>>, BankError> {
-        let mut out = Vec::new();
-        self.read_columns_into(indices, &mut out)?;
-        Ok(out)
+        let n = self.instances();
+        let mut flat = vec![0.0f32; indices.len() * n];
+        self.read_columns_flat(indices, &mut flat)?;
+        Ok(flat.chunks(n.max(1)).map(<[f32]>::to_vec).collect())
     }
 
-    /// [`Bank::read_columns`] into caller-provided buffers, reused across calls (a fresh
-    /// 12 MB allocation per call costs more in page faults than the decoding itself). Shard
-    /// files are decoded in parallel on the current rayon pool, each straight into its own
-    /// slice of the output.
-    pub fn read_columns_into(
-        &self,
-        indices: &[usize],
-        out: &mut Vec<Vec<f32>>,
-    ) -> Result<(), BankError> {
+    /// [`Bank::read_columns`] into one caller-provided buffer of `indices.len() × instances`
+    /// values, column `j` at `[j·N, (j+1)·N)`: the hot path reuses it across measurements (a
+    /// fresh 12 MB allocation costs more in page faults than the copying itself). Shard files
+    /// are read in parallel on the current rayon pool, each straight into its own slices.
+    pub fn read_columns_flat(&self, indices: &[usize], out: &mut [f32]) -> Result<(), BankError> {
+        let n = self.instances();
+        if out.len() != indices.len() * n {
+            return Err(BankError::Invalid(format!(
+                "a buffer of {} values for {} columns of {n} instances",
+                out.len(),
+                indices.len()
+            )));
+        }
         let mut sorted: Vec<usize> = indices.to_vec();
         sorted.sort_unstable();
         sorted.dedup();
-        let n = self.instances();
-        out.resize_with(indices.len(), Vec::new);
-        // Decode into the first `sorted.len()` buffers, then arrange them in the order asked.
-        let mut columns: Vec<Vec<f32>> = std::mem::take(out);
-        columns.truncate(indices.len());
-        for c in columns.iter_mut() {
-            c.resize(n, 0.0);
-        }
+        // Each distinct column is read into the slot of its first request, then copied to the
+        // slots of any repeats.
+        let first_slot: Vec<usize> = sorted
+            .iter()
+            .map(|c| indices.iter().position(|x| x == c).expect("asked for"))
+            .collect();
+        let mut by_slot: Vec<Option<&mut [f32]>> = out.chunks_mut(n.max(1)).map(Some).collect();
+        let mut columns: Vec<&mut [f32]> = first_slot
+            .iter()
+            .map(|&slot| by_slot[slot].take().expect("one distinct column per slot"))
+            .collect();
         // Per file, its rows of every column.
         let mut slots: Vec<Vec<&mut [f32]>> = self
             .files
             .iter()
             .map(|_| Vec::with_capacity(sorted.len()))
             .collect();
-        for col in columns[..sorted.len()].iter_mut() {
-            let mut rest = col.as_mut_slice();
+        for col in columns.iter_mut() {
+            let mut rest: &mut [f32] = col;
             for (file_slots, file) in slots.iter_mut().zip(&self.files) {
                 let (head, tail) = rest.split_at_mut(file.rows);
                 file_slots.push(head);
                 rest = tail;
             }
         }
+        if let Some(layout) = &self.layout {
+            // Slices of the mapped files: a copy per column and shard.
+            let check = |col: usize| {
+                if col >= layout.widths.len() || layout.widths[col] != 4 || col == 0 {
+                    return Err(BankError::Invalid(format!(
+                        "column {col} is not a force-sample column"
+                    )));
+                }
+                Ok(())
+            };
+            sorted.iter().try_for_each(|&c| check(c))?;
+            self.files
+                .par_iter()
+                .zip(slots.par_iter_mut())
+                .enumerate()
+                .for_each(|(s, (file, file_slots))| {
+                    for (slot, &col) in file_slots.iter_mut().zip(&sorted) {
+                        f32_values(layout.values(s, col, 0..file.rows, &file.bytes), slot);
+                    }
+                });
+        } else {
+            self.decode_columns(&sorted, &mut slots)?;
+        }
+        // Repeats: copies of their column's first slot.
+        for (slot, &col) in indices.iter().enumerate() {
+            let pos = sorted.binary_search(&col).expect("every index is sorted");
+            let from = first_slot[pos];
+            if from != slot {
+                out.copy_within(from * n..(from + 1) * n, slot * n);
+            }
+        }
+        Ok(())
+    }
+
+    /// The footer path of [`Bank::read_columns_flat`]: every shard's projected columns decoded
+    /// into its slots, shards in parallel.
+    fn decode_columns(
+        &self,
+        sorted: &[usize],
+        slots: &mut [Vec<&mut [f32]>],
+    ) -> Result<(), BankError> {
         self.files
             .par_iter()
             .zip(slots.par_iter_mut())
             .try_for_each(|(file, file_slots)| -> Result<(), BankError> {
-                let reader = file.projected(&sorted)?;
+                let reader = file.projected(self.footer(file)?, sorted)?;
                 let mut offset = 0;
                 for batch in reader {
                     let batch = batch.map_err(|e| BankError::Corrupt {
@@ -354,35 +502,11 @@ impl Bank {
                     });
                 }
                 Ok(())
-            })?;
-        // Back to the order asked: decoded column `pos` goes to its first slot, later duplicates
-        // get copies, spare buffers fill the rest.
-        let spare = columns.split_off(sorted.len());
-        let mut decoded: Vec<Option<Vec<f32>>> = columns.into_iter().map(Some).collect();
-        let mut spare = spare.into_iter();
-        let mut first_slot = vec![usize::MAX; sorted.len()];
-        for (slot, &col) in indices.iter().enumerate() {
-            let pos = sorted
-                .binary_search(&col)
-                .expect("every index is in the sorted set");
-            match decoded[pos].take() {
-                Some(v) => {
-                    first_slot[pos] = slot;
-                    out.push(v);
-                }
-                None => {
-                    let mut v = spare.next().unwrap_or_default();
-                    v.clear();
-                    v.extend_from_slice(&out[first_slot[pos]]);
-                    out.push(v);
-                }
-            }
-        }
-        Ok(())
+            })
     }
 
-    /// Reads one whole instance (row `instance`: rows are stored in instance order), decoding
-    /// only that row of its shard file.
+    /// Reads one whole instance (row `instance`: rows are stored in instance order): that row
+    /// of its shard file only.
     pub fn read_instance(&self, instance: usize) -> Result<StoredInstance, BankError> {
         let n = self.instances();
         if instance >= n {
@@ -392,10 +516,10 @@ impl Bank {
             )));
         }
         let mut row = instance;
-        let file = self
+        let shard = self
             .files
             .iter()
-            .find(|f| {
+            .position(|f| {
                 if row < f.rows {
                     true
                 } else {
@@ -404,13 +528,68 @@ impl Bank {
                 }
             })
             .expect("the row is within the files' rows");
+        let file = &self.files[shard];
+        let corrupt = |message: String| BankError::Corrupt {
+            path: file.path.clone(),
+            message,
+        };
+        let (number, parameters, samples) = match &self.layout {
+            Some(layout) => {
+                let at = |col: usize| layout.values(shard, col, row..row + 1, &file.bytes);
+                let number = u32_values(at(0)).next().expect("one value");
+                let parameters: [f64; PARAMETER_COLUMNS.len()] =
+                    std::array::from_fn(|k| f64_values(at(1 + k)).next().expect("one value"));
+                let samples: Vec<f32> = (1 + PARAMETER_COLUMNS.len()..layout.widths.len())
+                    .map(|col| {
+                        let mut v = [0.0f32];
+                        f32_values(at(col), &mut v);
+                        v[0]
+                    })
+                    .collect();
+                (number, parameters, samples)
+            }
+            None => self.decode_row(file, row)?,
+        };
+        if number as usize != instance {
+            return Err(corrupt(format!(
+                "row {row} holds instance {number}, expected {instance}"
+            )));
+        }
+        let mut samples = samples.into_iter();
+        let forces_kn = self
+            .metadata
+            .sensors
+            .iter()
+            .map(|axis| samples.by_ref().take(axis.samples).collect::<Vec<f32>>())
+            .collect::<Vec<_>>();
+        if forces_kn
+            .iter()
+            .zip(&self.metadata.sensors)
+            .any(|(v, a)| v.len() != a.samples)
+        {
+            return Err(corrupt(format!("row {row} holds too few force samples")));
+        }
+        Ok(StoredInstance {
+            instance: number,
+            parameters,
+            forces_kn,
+        })
+    }
+
+    /// One row of a shard through its footer: instance number, parameters, force samples.
+    #[allow(clippy::type_complexity)]
+    fn decode_row(
+        &self,
+        file: &ShardFile,
+        row: usize,
+    ) -> Result<(u32, [f64; PARAMETER_COLUMNS.len()], Vec<f32>), BankError> {
         let corrupt = |message: String| BankError::Corrupt {
             path: file.path.clone(),
             message,
         };
         let reader = ParquetRecordBatchReaderBuilder::new_with_metadata(
             file.bytes.clone(),
-            file.meta.clone(),
+            self.footer(file)?.clone(),
         )
         .with_row_selection(RowSelection::from(vec![
             RowSelector::skip(row),
@@ -432,11 +611,6 @@ impl Bank {
             .downcast_ref::<UInt32Array>()
             .map(|a| a.value(0))
             .ok_or_else(|| corrupt("the instance column is not u32".into()))?;
-        if number as usize != instance {
-            return Err(corrupt(format!(
-                "row {row} holds instance {number}, expected {instance}"
-            )));
-        }
         let mut parameters = [0.0; PARAMETER_COLUMNS.len()];
         for (k, p) in parameters.iter_mut().enumerate() {
             *p = batch
@@ -446,32 +620,35 @@ impl Bank {
                 .map(|a| a.value(0))
                 .ok_or_else(|| corrupt(format!("`{}` is not f64", PARAMETER_COLUMNS[k])))?;
         }
-        let mut col = 1 + PARAMETER_COLUMNS.len();
-        let mut forces_kn = Vec::with_capacity(self.metadata.sensors.len());
-        for axis in &self.metadata.sensors {
-            let mut v = Vec::with_capacity(axis.samples);
-            for _ in 0..axis.samples {
-                let value = batch
+        let samples = (1 + PARAMETER_COLUMNS.len()..batch.num_columns())
+            .map(|col| {
+                batch
                     .column(col)
                     .as_any()
                     .downcast_ref::<Float32Array>()
                     .map(|a| a.value(0))
-                    .ok_or_else(|| corrupt(format!("column {col} is not a force sample")))?;
-                v.push(value);
-                col += 1;
-            }
-            forces_kn.push(v);
-        }
-        Ok(StoredInstance {
-            instance: number,
-            parameters,
-            forces_kn,
-        })
+                    .ok_or_else(|| corrupt(format!("column {col} is not a force sample")))
+            })
+            .collect::<Result<Vec<f32>, BankError>>()?;
+        Ok((number, parameters, samples))
     }
 
     /// Reads the parameter columns of every instance.
     pub fn read_parameters(&self) -> Result<Parameters, BankError> {
         let mut p = Parameters::default();
+        if let Some(layout) = &self.layout {
+            for (s, file) in self.files.iter().enumerate() {
+                let col = |c: usize| layout.values(s, c, 0..file.rows, &file.bytes);
+                p.instance.extend(u32_values(col(0)));
+                p.length_mm.extend(f64_values(col(1)));
+                p.depth_mm.extend(f64_values(col(2)));
+                p.curvature_mm.extend(f64_values(col(3)));
+                p.impact_position_m.extend(f64_values(col(4)));
+                p.l0_mm.extend(f64_values(col(5)));
+                p.flat_wheel.extend(f64_values(col(6)).map(|w| w as u8));
+            }
+            return Ok(p);
+        }
         let cols: Vec<usize> = (0..=PARAMETER_COLUMNS.len()).collect();
         self.read_projected(&cols, |col, array| {
             if col == 0 {
@@ -497,71 +674,4 @@ impl Bank {
         })?;
         Ok(p)
     }
-}
-
-/// One problem found by [`verify`].
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct VerifyProblem {
-    /// The file.
-    pub path: PathBuf,
-    /// What is wrong.
-    pub message: String,
-}
-
-/// Checks every file of a bank against its manifest (presence, size, SHA-256, readable footer
-/// naming this bank). Returns the problems found (empty: the bank is intact).
-pub fn verify(dir: &Path) -> Result<(Manifest, Vec<VerifyProblem>), BankError> {
-    let version = resolve_version(dir)?;
-    let manifest = read_manifest(&version)?;
-    let mut problems = Vec::new();
-    for f in &manifest.files {
-        let path = version.join(&f.name);
-        let bytes = match std::fs::read(&path) {
-            Ok(b) => b,
-            Err(e) => {
-                problems.push(VerifyProblem {
-                    path,
-                    message: format!("cannot read: {e}"),
-                });
-                continue;
-            }
-        };
-        if bytes.len() as u64 != f.bytes {
-            problems.push(VerifyProblem {
-                path,
-                message: format!(
-                    "truncated or extended: {} bytes, manifest says {}",
-                    bytes.len(),
-                    f.bytes
-                ),
-            });
-            continue;
-        }
-        let sum = sha256_hex(&bytes);
-        if sum != f.sha256 {
-            problems.push(VerifyProblem {
-                path,
-                message: format!(
-                    "checksum mismatch: sha256 {sum}, manifest says {}",
-                    f.sha256
-                ),
-            });
-            continue;
-        }
-        if let Err(e) = open_shard(&path) {
-            problems.push(VerifyProblem {
-                path,
-                message: e.to_string(),
-            });
-        }
-    }
-    if let Some(aux) = &manifest.neighbours {
-        if let Err(e) = read_neighbours(&version, aux, &manifest.bank_id, manifest.instances) {
-            problems.push(VerifyProblem {
-                path: version.join(&aux.name),
-                message: e.to_string(),
-            });
-        }
-    }
-    Ok((manifest, problems))
 }

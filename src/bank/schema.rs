@@ -159,6 +159,11 @@ pub struct Manifest {
     /// written before it was stored, whose readers search it at open.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub neighbours: Option<ManifestAux>,
+    /// Where every column's values lie in the shards (`layout.bin`, [`crate::bank::layout`]);
+    /// absent for banks stored compressed and banks written before it was stored, whose
+    /// readers parse the shards' footers.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layout: Option<ManifestAux>,
 }
 
 /// A file beside the shards, in the manifest.
@@ -257,7 +262,7 @@ pub(crate) fn parquet_err(path: &Path) -> impl Fn(parquet::errors::ParquetError)
 }
 
 /// Maps a file read-only.
-fn map(path: &Path) -> Result<Bytes, BankError> {
+pub(crate) fn map(path: &Path) -> Result<Bytes, BankError> {
     let file = std::fs::File::open(path).map_err(|source| BankError::Io {
         path: path.to_path_buf(),
         source,
@@ -280,16 +285,22 @@ pub(crate) fn open_shard(
     let meta =
         ArrowReaderMetadata::load(&bytes, ArrowReaderOptions::new()).map_err(parquet_err(path))?;
     let kv = bank_metadata_text(path, meta.metadata().file_metadata())?;
+    let bank_meta = parse_bank_metadata(path, &kv)?;
+    Ok((bytes, meta, bank_meta))
+}
+
+/// A shard's `wheelflat.bank` metadata from its JSON text (`path` names where it was read).
+pub(crate) fn parse_bank_metadata(path: &Path, kv: &str) -> Result<BankMetadata, BankError> {
     let bad = |e: serde_json::Error| BankError::Corrupt {
         path: path.to_path_buf(),
         message: format!("bad `{METADATA_KEY}` metadata: {e}"),
     };
-    let bank_meta: BankMetadata = match serde_json::from_str(&kv) {
+    let bank_meta: BankMetadata = match serde_json::from_str(kv) {
         Ok(m) => m,
         // The identification settings are not part of a bank's identity: a bank written by a
         // version with other identification keys opens with today's defaults for them.
         Err(first) => {
-            let mut v: serde_json::Value = serde_json::from_str(&kv).map_err(bad)?;
+            let mut v: serde_json::Value = serde_json::from_str(kv).map_err(bad)?;
             let dropped = v
                 .get_mut("calibration")
                 .and_then(|c| c.as_object_mut())
@@ -301,11 +312,11 @@ pub(crate) fn open_shard(
             serde_json::from_value(v).map_err(|_| bad(first))?
         }
     };
-    Ok((bytes, meta, bank_meta))
+    Ok(bank_meta)
 }
 
 /// The `wheelflat.bank` JSON of a shard's footer.
-fn bank_metadata_text(
+pub(crate) fn bank_metadata_text(
     path: &Path,
     file: &parquet::file::metadata::FileMetaData,
 ) -> Result<String, BankError> {

@@ -41,12 +41,20 @@ pub(super) fn generate(a: &GenerateArgs, simulate_missing: bool) -> Result<()> {
     let outcome = outcome.with_context(|| format!("bank {}", a.out.display()))?;
     let secs = started.elapsed().as_secs_f64();
     match outcome {
-        Outcome::UpToDate { version } => {
-            println!(
-                "bank {} is up to date ({}); nothing to do",
-                a.out.display(),
-                version.display()
-            );
+        Outcome::UpToDate { version, upgraded } => {
+            if upgraded {
+                println!(
+                    "bank {} is up to date ({}); added the neighbour graph and column layout this wheelflat stores beside the shards ({secs:.1} s)",
+                    a.out.display(),
+                    version.display()
+                );
+            } else {
+                println!(
+                    "bank {} is up to date ({}); nothing to do",
+                    a.out.display(),
+                    version.display()
+                );
+            }
         }
         Outcome::Complete {
             version,

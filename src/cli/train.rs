@@ -4,7 +4,9 @@ use super::args::TrainArgs;
 use super::{create_output_folder, write_file};
 use crate::bank;
 use crate::identify::{Identifier, Measurement};
+use crate::train::TrainResult;
 use anyhow::{Context, Result};
+use std::path::{Path, PathBuf};
 
 /// Reads the recording and triggers, identifies every bogie, writes `train.csv`, `.json` and
 /// `.html` and prints the table.
@@ -18,28 +20,10 @@ pub(super) fn run(a: &TrainArgs) -> Result<()> {
         .clone()
         .check()
         .context("the bank's stored calibration")?;
-    let rate = b.metadata().sensors[0].sample_rate_hz;
-    let text = std::fs::read_to_string(&a.recording)
-        .with_context(|| format!("cannot read recording {}", a.recording.display()))?;
-    let recording = Measurement::from_csv(&a.recording, &text, rate)?;
-    let ttext = std::fs::read_to_string(&a.triggers)
-        .with_context(|| format!("cannot read triggers {}", a.triggers.display()))?;
-    let times = crate::train::read_triggers(&a.triggers, &ttext)?;
-    let bogies = crate::train::bogies_from_triggers(&cal, &a.triggers, &times)?;
     let identifier = Identifier::new(b, cal.identification.clone())?;
-    let result = crate::train::identify_train(&identifier, &recording, &bogies)?;
+    let result = identify_pass(&identifier, &a.recording, &a.triggers)?;
     create_output_folder(&a.out)?;
-    let csv = a.out.join("train.csv");
-    let json = a.out.join("train.json");
-    let html = a.out.join("train.html");
-    write_file(&csv, crate::report::train::table_csv(&result).as_bytes())?;
-    write_file(
-        &json,
-        serde_json::to_string_pretty(&result)
-            .expect("train result serialises")
-            .as_bytes(),
-    )?;
-    write_file(&html, crate::report::train::table_html(&result).as_bytes())?;
+    let written = write_outputs(&result, &a.out)?;
     print!("{}", crate::report::train::table_text(&result));
     let flats = result.wheels.iter().filter(|w| w.flat == "yes").count();
     println!(
@@ -55,9 +39,50 @@ pub(super) fn run(a: &TrainArgs) -> Result<()> {
     }
     println!(
         "wrote {}, {} and {}",
-        csv.display(),
-        json.display(),
-        html.display()
+        written[0].display(),
+        written[1].display(),
+        written[2].display()
     );
     Ok(())
+}
+
+/// One train pass, a recording and its trigger file, against an open bank (which must cover
+/// a train: [`crate::train::check_coverage`] is the caller's).
+pub(super) fn identify_pass(
+    identifier: &Identifier,
+    recording: &Path,
+    triggers: &Path,
+) -> Result<TrainResult> {
+    let meta = identifier.bank().metadata();
+    let cal = meta
+        .calibration
+        .clone()
+        .check()
+        .context("the bank's stored calibration")?;
+    let rate = meta.sensors[0].sample_rate_hz;
+    let text = std::fs::read_to_string(recording)
+        .with_context(|| format!("cannot read recording {}", recording.display()))?;
+    let m = Measurement::from_csv(recording, &text, rate)?;
+    let ttext = std::fs::read_to_string(triggers)
+        .with_context(|| format!("cannot read triggers {}", triggers.display()))?;
+    let times = crate::train::read_triggers(triggers, &ttext)?;
+    let bogies = crate::train::bogies_from_triggers(&cal, triggers, &times)?;
+    Ok(crate::train::identify_train(identifier, &m, &bogies)?)
+}
+
+/// Writes `train.csv`, `train.json` and `train.html` into `out` (each atomically); their
+/// paths.
+pub(super) fn write_outputs(result: &TrainResult, out: &Path) -> Result<[PathBuf; 3]> {
+    let csv = out.join("train.csv");
+    let json = out.join("train.json");
+    let html = out.join("train.html");
+    write_file(&csv, crate::report::train::table_csv(result).as_bytes())?;
+    write_file(
+        &json,
+        serde_json::to_string_pretty(result)
+            .expect("train result serialises")
+            .as_bytes(),
+    )?;
+    write_file(&html, crate::report::train::table_html(result).as_bytes())?;
+    Ok([csv, json, html])
 }

@@ -5,6 +5,10 @@
 //! - **Only complete files.** A measurement is a regular `*.csv` file whose name does not
 //!   start with a dot; writers write under another name (`.name.csv`, `name.csv.part`) and
 //!   rename into place, so a file is never read half-written.
+//! - **Train passes.** A recording `NAME.csv` with a trigger file `NAME.triggers.csv` beside
+//!   it is a whole train (`wheelflat train`): the trigger file is placed first, the recording
+//!   last, and the pair is identified when the recording appears. The result is
+//!   `OUT/NAME/train.json` (with `train.csv` and `train.html`) and both files move together.
 //! - **Exactly once.** After its pass the input is moved to `done/` or, with a
 //!   `<name>.error.txt` saying why, to `failed/`; the result `OUT/<stem>/identification.json`
 //!   is written atomically before the input moves. A crash between the two leaves the input in
@@ -25,6 +29,12 @@ use std::time::{Duration, Instant};
 
 /// The largest measurement accepted (a 5-sensor, 10 s record at 2.5 kHz is about 2 MB).
 const MAX_MEASUREMENT_BYTES: u64 = 64 << 20;
+
+/// The largest trigger file accepted (one line per wheel: a few kB for the longest train).
+const MAX_TRIGGER_BYTES: u64 = 1 << 20;
+
+/// What marks a recording as a train pass: `NAME.csv` with `NAME` + this beside it.
+const TRIGGERS_SUFFIX: &str = ".triggers.csv";
 
 /// The open bank and the version it is.
 struct Open {
@@ -50,7 +60,11 @@ fn waiting(inbox: &Path) -> Result<Vec<PathBuf>> {
         let entry = entry.with_context(|| format!("cannot list {}", inbox.display()))?;
         let name = entry.file_name().to_string_lossy().to_string();
         let is_file = entry.file_type().map(|t| t.is_file()).unwrap_or(false);
-        if is_file && !name.starts_with('.') && name.ends_with(".csv") {
+        if is_file
+            && !name.starts_with('.')
+            && name.ends_with(".csv")
+            && !name.ends_with(TRIGGERS_SUFFIX)
+        {
             out.push(entry.path());
         }
     }
@@ -58,16 +72,51 @@ fn waiting(inbox: &Path) -> Result<Vec<PathBuf>> {
     Ok(out)
 }
 
-/// Identifies one measurement and writes its result; the verdict line.
-fn identify_one(open: &Open, path: &Path, a: &WatchArgs, out: &Path) -> Result<String> {
+/// Refuses a file larger than `limit` bytes before it is read.
+fn check_size(path: &Path, limit: u64, what: &str) -> Result<()> {
     let size = std::fs::metadata(path)
         .with_context(|| format!("cannot read {}", path.display()))?
         .len();
-    if size > MAX_MEASUREMENT_BYTES {
+    if size > limit {
         bail!(
-            "{}: {size} bytes, more than the {MAX_MEASUREMENT_BYTES} a measurement may have",
+            "{}: {size} bytes, more than the {limit} a {what} may have",
             path.display()
         );
+    }
+    Ok(())
+}
+
+/// Identifies one measurement (or, with `triggers`, one train pass) and writes its result;
+/// the verdict line.
+fn identify_one(
+    open: &Open,
+    path: &Path,
+    triggers: Option<&Path>,
+    a: &WatchArgs,
+    out: &Path,
+) -> Result<String> {
+    check_size(path, MAX_MEASUREMENT_BYTES, "measurement")?;
+    if let Some(triggers) = triggers {
+        check_size(triggers, MAX_TRIGGER_BYTES, "trigger file")?;
+        crate::train::check_coverage(open.identifier.bank(), &a.bank)?;
+        let result = super::train::identify_pass(&open.identifier, path, triggers)?;
+        std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+        super::train::write_outputs(&result, out)?;
+        let flats: Vec<String> = result
+            .wheels
+            .iter()
+            .filter(|w| w.flat != "no")
+            .map(|w| format!("bogie {} {} {}", w.bogie, w.wheel.name(), w.severity))
+            .collect();
+        return Ok(format!(
+            "train of {} bogies: {}",
+            result.bogies.len(),
+            if flats.is_empty() {
+                "no flat".to_string()
+            } else {
+                flats.join(", ")
+            }
+        ));
     }
     let m = super::read_measurement(&open.identifier, path)?;
     let id = open
@@ -149,12 +198,17 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
                 .to_string_lossy()
                 .to_string();
             let stem = name.trim_end_matches(".csv").to_string();
+            let triggers = path.with_file_name(format!("{stem}{TRIGGERS_SUFFIX}"));
+            let triggers = triggers.is_file().then_some(triggers);
             let t = Instant::now();
-            let result = identify_one(&current, &path, a, &a.out.join(&stem));
+            let result = identify_one(&current, &path, triggers.as_deref(), a, &a.out.join(&stem));
             let ms = t.elapsed().as_secs_f64() * 1e3;
             seen += 1;
             match result {
                 Ok(verdict) => {
+                    if let Some(t) = &triggers {
+                        move_into(t, &done)?;
+                    }
                     move_into(&path, &done)?;
                     println!(
                         "{} {name} ok {ms:.1} ms [{}] {verdict}",
@@ -172,6 +226,9 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
                         .with_context(|| format!("cannot create {}", failed.display()))?;
                     let note = failed.join(format!("{name}.error.txt"));
                     super::write_file(&note, format!("{e:#}\n").as_bytes())?;
+                    if let Some(t) = &triggers {
+                        move_into(t, &failed)?;
+                    }
                     move_into(&path, &failed)?;
                     println!("{} {name} FAILED {ms:.1} ms: {e:#}", stamp());
                 }

@@ -25,8 +25,9 @@ pub use crate::bank::neighbours::{nearest, unit_points, NEIGHBOURS};
 pub struct Cells {
     k: usize,
     neighbours: Vec<u32>,
-    /// Half-way to the farthest neighbour in each of L, d, c, X_p (physical units).
-    half_extent: Vec<[f64; 4]>,
+    /// Every instance's (L, d, c, X_p): its cell's extent is computed when asked for (only
+    /// the survivors' are, so opening a bank does not pay for 50,000).
+    coords: Vec<[f64; 4]>,
 }
 
 impl Cells {
@@ -48,46 +49,32 @@ impl Cells {
             Some(g) => g.to_vec(),
             None => crate::bank::neighbours::neighbour_graph(p, ranges),
         };
-        Cells::from_neighbours(graph, &coords)
+        Cells::from_neighbours(graph, coords)
     }
 
     /// The cells of any point set: `unit` places the points for the neighbour search, `coords`
     /// (L, d, c, X_p) give the cells' physical extents.
     pub fn from_points(unit: &[[f64; 4]], coords: &[[f64; 4]]) -> Cells {
-        Cells::from_neighbours(nearest(unit, NEIGHBOURS), coords)
+        Cells::from_neighbours(nearest(unit, NEIGHBOURS), coords.to_vec())
     }
 
     /// Cells from a neighbour list (`NEIGHBOURS` per point) and the points' (L, d, c, X_p).
-    fn from_neighbours(neighbours: Vec<u32>, coords: &[[f64; 4]]) -> Cells {
-        let k = NEIGHBOURS;
-        let half_extent = (0..coords.len())
-            .map(|i| {
-                let x = coords[i];
-                let mut h = [0.0f64; 4];
-                for &j in &neighbours[i * k..(i + 1) * k] {
-                    let y = coords[j as usize];
-                    for t in 0..4 {
-                        h[t] = h[t].max(0.5 * (y[t] - x[t]).abs());
-                    }
-                }
-                h
-            })
-            .collect();
+    fn from_neighbours(neighbours: Vec<u32>, coords: Vec<[f64; 4]>) -> Cells {
         Cells {
-            k,
+            k: NEIGHBOURS,
             neighbours,
-            half_extent,
+            coords,
         }
     }
 
     /// Instances covered.
     pub fn len(&self) -> usize {
-        self.half_extent.len()
+        self.coords.len()
     }
 
     /// True when no instance is covered.
     pub fn is_empty(&self) -> bool {
-        self.half_extent.is_empty()
+        self.coords.is_empty()
     }
 
     /// The neighbours of instance `i`.
@@ -97,7 +84,15 @@ impl Cells {
 
     /// Half-way to the farthest neighbour in L (mm), d (mm), c (mm), X_p (m).
     pub fn half_extent(&self, i: usize) -> [f64; 4] {
-        self.half_extent[i]
+        let x = self.coords[i];
+        let mut h = [0.0f64; 4];
+        for &j in self.neighbours(i) {
+            let y = self.coords[j as usize];
+            for t in 0..4 {
+                h[t] = h[t].max(0.5 * (y[t] - x[t]).abs());
+            }
+        }
+        h
     }
 
     /// `max_j |g_j − g_i|` over the neighbours of `i`, at one point (kN).

@@ -15,18 +15,23 @@
 
 use rayon::prelude::*;
 
+/// The most bins a point has: a prediction more than this many bin widths above the point's
+/// smallest shares the last bin. (The default uncertainty table gives a few hundred bins at
+/// most; the bound keeps the counting tables small whatever the settings.)
+pub const MAX_BINS: usize = 1 << 16;
+
 /// The predictions at one point, as bin numbers, with their entropy.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Binned {
-    /// Bin of every instance.
-    pub bins: Vec<u32>,
+    /// Bin of every instance (two bytes: the counting passes are memory-bound).
+    pub bins: Vec<u16>,
     /// Number of bins.
     pub nbins: usize,
     /// Shannon entropy of the bins (bits).
     pub entropy_bits: f64,
 }
 
-/// Bins `values` with width `width` starting at their minimum.
+/// Bins `values` with width `width` starting at their minimum (at most [`MAX_BINS`] bins).
 pub fn bin_predictions(values: &[f32], width: f64) -> Binned {
     let mut b = Binned::default();
     bin_predictions_into(values, width, &mut b);
@@ -35,13 +40,38 @@ pub fn bin_predictions(values: &[f32], width: f64) -> Binned {
 
 /// [`bin_predictions`] into a reused buffer (the hot path allocates nothing per call).
 pub fn bin_predictions_into(values: &[f32], width: f64, out: &mut Binned) {
-    let lo = values.iter().copied().fold(f32::MAX, f32::min) as f64;
-    let inv = 1.0 / width.max(1e-12);
     out.bins.clear();
-    out.bins
-        .extend(values.iter().map(|&v| ((v as f64 - lo) * inv) as u32));
-    out.nbins = out.bins.iter().copied().max().map_or(0, |m| m as usize + 1);
-    out.entropy_bits = entropy(out);
+    if values.is_empty() {
+        out.nbins = 0;
+        out.entropy_bits = 0.0;
+        return;
+    }
+    // One pass for the range, one to bin, one to count. The bin map is monotone, so the
+    // largest value's bin is the last one.
+    let (lo, hi) = values
+        .iter()
+        .fold((f32::MAX, f32::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+    let lo = lo as f64;
+    let inv = 1.0 / width.max(1e-12);
+    let last = (MAX_BINS - 1) as f64;
+    let bin = |v: f32| ((v as f64 - lo) * inv).min(last) as u16;
+    out.nbins = bin(hi) as usize + 1;
+    out.bins.extend(values.iter().map(|&v| bin(v)));
+    let mut counts = vec![0u32; out.nbins];
+    for &b in &out.bins {
+        counts[b as usize] += 1;
+    }
+    out.entropy_bits = entropy_of_counts(&counts, values.len());
+}
+
+/// Shannon entropy (bits) of `n` instances counted into bins.
+fn entropy_of_counts(counts: &[u32], n: usize) -> f64 {
+    let s: f64 = counts
+        .iter()
+        .filter(|&&c| c > 0)
+        .map(|&c| c as f64 * (c as f64).log2())
+        .sum();
+    (n as f64).log2() - s / n as f64
 }
 
 /// `c·log2(c)` for c = 0…n.
@@ -63,16 +93,11 @@ pub fn entropy(b: &Binned) -> f64 {
     if n == 0 {
         return 0.0;
     }
-    let mut counts = vec![0usize; b.nbins];
+    let mut counts = vec![0u32; b.nbins];
     for &x in &b.bins {
         counts[x as usize] += 1;
     }
-    let s: f64 = counts
-        .iter()
-        .filter(|&&c| c > 0)
-        .map(|&c| c as f64 * (c as f64).log2())
-        .sum();
-    (n as f64).log2() - s / n as f64
+    entropy_of_counts(&counts, n)
 }
 
 /// The outcome of a greedy selection.
@@ -113,11 +138,11 @@ pub fn greedy_joint_entropy(
     // Active instances in group order; groups are (start, len) runs of it, all len ≥ 2.
     let mut active: Vec<u32> = (0..n as u32).collect();
     let mut groups: Vec<(usize, usize)> = vec![(0, n)];
-    let gain_of = |bins: &[u32],
+    let gain_of = |bins: &[u16],
                    active: &[u32],
                    groups: &[(usize, usize)],
                    counts: &mut Vec<u32>,
-                   touched: &mut Vec<u32>| {
+                   touched: &mut Vec<u16>| {
         let mut gain = 0.0;
         for &(start, len) in groups {
             for &k in &active[start..start + len] {
@@ -145,7 +170,7 @@ pub fn greedy_joint_entropy(
         .collect();
     let mut fresh = vec![true; remaining.len()];
     let mut counts = vec![0u32; max_bins];
-    let mut touched = Vec::with_capacity(64);
+    let mut touched: Vec<u16> = Vec::with_capacity(64);
     let mut joint = 0.0;
     while !remaining.is_empty() && sel.order.len() < max_points && !groups.is_empty() {
         let best = loop {
@@ -212,7 +237,7 @@ pub fn greedy_joint_entropy(
             for &k in run {
                 let b = bins[k as usize] as usize;
                 if counts[b] == 0 {
-                    touched.push(b as u32);
+                    touched.push(b as u16);
                 }
                 counts[b] += 1;
             }
@@ -252,6 +277,7 @@ mod tests {
     use super::*;
 
     fn binned(bins: Vec<u32>) -> Binned {
+        let bins: Vec<u16> = bins.into_iter().map(|b| b as u16).collect();
         let nbins = bins.iter().copied().max().unwrap() as usize + 1;
         let mut b = Binned {
             bins,
@@ -293,7 +319,7 @@ mod tests {
     /// Joint entropy of a set of points by hashing the bin tuples from scratch.
     fn brute_joint(cands: &[Binned], set: &[usize]) -> f64 {
         let n = cands[0].bins.len();
-        let mut cells = std::collections::HashMap::<Vec<u32>, usize>::new();
+        let mut cells = std::collections::HashMap::<Vec<u16>, usize>::new();
         for k in 0..n {
             *cells
                 .entry(set.iter().map(|&c| cands[c].bins[k]).collect())

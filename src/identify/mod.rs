@@ -6,6 +6,7 @@
 //! measurement path: align, PIP, read the candidate columns, entropy selection, falsify.
 
 pub mod aligned;
+pub mod buffer;
 pub mod cells;
 pub mod coverage;
 pub mod entropy;
@@ -118,7 +119,7 @@ pub struct Identifier {
     cells: Cells,
     settings: IdentificationParams,
     uncertainty: CombinedUncertainty,
-    buffers: Mutex<Vec<Vec<f32>>>,
+    buffers: Mutex<buffer::PredictionBuffer>,
     bin_buffers: Mutex<Vec<Binned>>,
 }
 
@@ -139,7 +140,7 @@ impl Identifier {
             cells,
             settings,
             uncertainty,
-            buffers: Mutex::new(Vec::new()),
+            buffers: Mutex::new(buffer::PredictionBuffer::default()),
             bin_buffers: Mutex::new(Vec::new()),
         })
     }
@@ -394,16 +395,22 @@ impl Identifier {
             .iter()
             .map(|&(si, k, _)| self.bank.sample_index(used[si].1, k))
             .collect();
-        let mut buffers = self.buffers.lock().unwrap_or_else(|e| e.into_inner());
-        self.bank.read_columns_into(&cols, &mut buffers)?;
-        let predictions: &Vec<Vec<f32>> = &buffers;
+        let n = self.bank.instances();
+        let mut buffer = self.buffers.lock().unwrap_or_else(|e| e.into_inner());
+        let flat = buffer.values(cols.len() * n).map_err(|e| {
+            IdentifyError::Invalid(format!(
+                "cannot map {} MB for the bank's predictions: {e}",
+                (cols.len() * n * 4) >> 20
+            ))
+        })?;
+        self.bank.read_columns_flat(&cols, flat)?;
+        let predictions: Vec<&[f32]> = flat.chunks(n.max(1)).collect();
         lap("read columns", &mut timings);
 
         let measured: Vec<f64> = cands
             .iter()
             .map(|&(si, k, _)| series[si].values_kn[k])
             .collect();
-        let n = self.bank.instances();
         let alpha = s.alpha_fraction * (n as f64).log2();
         let all: Vec<usize> = (0..cands.len()).collect();
         // Entropy bins at the Šídák width for m points; m comes from the selection itself, so
@@ -427,7 +434,7 @@ impl Identifier {
             use rayon::prelude::*;
             binned.par_iter_mut().enumerate().for_each(|(i, b)| {
                 let (lo, hi) = bounds(i, p);
-                bin_predictions_into(&predictions[i], hi - lo, b);
+                bin_predictions_into(predictions[i], hi - lo, b);
             });
         };
         lap("resolution", &mut timings);
@@ -448,7 +455,7 @@ impl Identifier {
             .map(|i| self.uncertainty.thresholds(measured[i], p_final))
             .collect();
         let point = |i: usize| Point {
-            predictions: &predictions[i],
+            predictions: predictions[i],
             measured_kn: measured[i],
             low_kn: thresholds[i].0,
             high_kn: thresholds[i].1,

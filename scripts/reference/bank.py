@@ -1,0 +1,147 @@
+"""The bank, read with pyarrow (src/bank/reader.rs, schema.rs, neighbours.rs).
+
+`CURRENT` or a version directory, `manifest.json`, the shards memory-mapped, the
+`wheelflat.bank` JSON of the first shard's footer (sensor axes, flat-free template, calibration
+with the identification settings), the parameter columns and the stored neighbour graph
+`neighbours.bin`. The peer reads every shard's footer through pyarrow; a `layout.bin` the bank
+may carry (src/bank/layout.rs, the Rust reader's way around those footers) is not needed.
+"""
+
+import hashlib
+import json
+import sys
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pyarrow.parquet as pq
+
+from .errors import Failure
+from .neighbours import NEIGHBOURS, neighbour_graph
+
+PARAMETER_COLUMNS = ["length_mm", "depth_mm", "curvature_mm", "impact_position_m", "l0_mm", "flat_wheel"]
+METADATA_KEY = b"wheelflat.bank"
+NEIGHBOURS_MAGIC = b"WFNEIGH1"
+FORMAT_VERSION = 2
+
+
+def resolve_version(bank_dir):
+    """`DIR/CURRENT`'s target, or `DIR` itself when it holds a manifest."""
+    current = bank_dir / "CURRENT"
+    if current.is_file():
+        return bank_dir / current.read_text().strip()
+    if (bank_dir / "manifest.json").is_file():
+        return bank_dir
+    raise Failure(f"{bank_dir} is not a wheelflat bank (no CURRENT file and no manifest.json)")
+
+
+def sample_column(sensor, k, samples):
+    """`rps2_t0137`: zero-padded to at least 4 digits (src/bank/schema.rs `sample_column`)."""
+    width = max(len(str(max(samples - 1, 0))), 4)
+    return f"{sensor}_t{k:0{width}d}"
+
+
+class Bank:
+    """An open bank: manifest, metadata, mapped shard files, parameters, neighbour graph."""
+
+    def __init__(self, bank_dir, threads, watch):
+        self.pool = ThreadPoolExecutor(max_workers=threads)
+        version = resolve_version(bank_dir)
+        self.version = version
+        self.manifest = json.loads((version / "manifest.json").read_text())
+        files = self.manifest["files"]
+        if not files:
+            raise Failure(f"{version / 'manifest.json'} lists no shard files")
+
+        def open_file(f):
+            path = version / f["name"]
+            size = path.stat().st_size
+            if size != f["bytes"]:
+                raise Failure(f"{path}: {size} bytes, the manifest says {f['bytes']}")
+            return pq.ParquetFile(path, memory_map=True)
+
+        self.files = list(self.pool.map(open_file, files))
+        self.rows = [f["rows"] for f in files]
+        self.n = sum(self.rows)
+        kv = self.files[0].metadata.metadata or {}
+        if METADATA_KEY not in kv:
+            raise Failure(f"{version / files[0]['name']}: no `wheelflat.bank` metadata")
+        self.meta = json.loads(kv[METADATA_KEY])
+        if self.meta["bank_id"] != self.manifest["bank_id"]:
+            raise Failure(f"bank id {self.meta['bank_id']} does not match the manifest's")
+        if self.meta["format_version"] != FORMAT_VERSION:
+            raise Failure(f"bank format {self.meta['format_version']}; this script reads {FORMAT_VERSION}")
+        # The other shards must name the same bank and format: a substring test on their
+        # compact (serde_json) metadata instead of parsing 50 kB of JSON per shard.
+        identity = (f'"bank_id":"{self.manifest["bank_id"]}"'.encode(), f'"format_version":{FORMAT_VERSION},'.encode())
+        for f, pf in zip(files[1:], self.files[1:], strict=True):
+            text = (pf.metadata.metadata or {}).get(METADATA_KEY, b"")
+            if not all(key in text for key in identity):
+                raise Failure(f"{version / f['name']}: belongs to another bank or format")
+        self.axes = self.meta["sensors"]
+        self.template = [np.asarray(t, dtype=np.float32) for t in self.meta["flat_free_kn"]]
+        cal = self.meta["calibration"]
+        self.population = cal["population"]
+        watch.lap("open footers")
+        self.params = self._read_parameters()
+        watch.lap("read parameters")
+        self.neighbours = self._read_neighbours()
+        watch.lap("neighbour graph")
+
+    def _read(self, columns):
+        """`columns` for every instance, shard files in parallel: {name: array in row order}."""
+        parts = list(self.pool.map(lambda f: f.read(columns=columns, use_threads=False), self.files))
+        for part, rows in zip(parts, self.rows, strict=True):
+            if part.num_rows != rows:
+                raise Failure(f"a shard holds {part.num_rows} rows, the manifest says {rows}")
+        return {c: np.concatenate([p.column(c).to_numpy() for p in parts]) for c in columns}
+
+    def _read_parameters(self):
+        p = self._read(["instance"] + PARAMETER_COLUMNS)
+        p["flat_wheel"] = p["flat_wheel"].astype(np.uint8)
+        return p
+
+    def read_samples(self, columns):
+        """Sample columns (names) as one float32 matrix, one row per column, instance order."""
+        out = np.empty((len(columns), self.n), dtype=np.float32)
+        offsets = np.concatenate([[0], np.cumsum(self.rows)])
+
+        def fill(i):
+            table = self.files[i].read(columns=columns, use_threads=False)
+            if table.num_rows != self.rows[i]:
+                raise Failure(f"shard {i} holds {table.num_rows} rows, the manifest says {self.rows[i]}")
+            for j, c in enumerate(columns):
+                out[j, offsets[i]:offsets[i + 1]] = table.column(c).to_numpy()
+
+        list(self.pool.map(fill, range(len(self.files))))
+        return out
+
+    def _read_neighbours(self):
+        """The stored graph (n × 8 int64), checked like src/bank/neighbours.rs `decode`."""
+        aux = self.manifest.get("neighbours")
+        if aux is None:
+            print("note: the bank stores no neighbour graph; searching it (slow)", file=sys.stderr)
+            return neighbour_graph(self.params, self.population)
+        path = self.version / aux["name"]
+        data = path.read_bytes()
+        if len(data) != aux["bytes"] or hashlib.sha256(data).hexdigest() != aux["sha256"]:
+            raise Failure(f"{path}: size or SHA-256 differs from the manifest")
+        if data[:8] != NEIGHBOURS_MAGIC:
+            raise Failure(f"{path}: not a wheelflat neighbour graph (bad magic)")
+        n = int.from_bytes(data[8:16], "little")
+        k = int.from_bytes(data[16:20], "little")
+        id_len = int.from_bytes(data[20:24], "little")
+        if data[24:24 + id_len].decode() != self.manifest["bank_id"] or n != self.n or k != NEIGHBOURS:
+            raise Failure(f"{path}: belongs to another bank ({n} instances × {k})")
+        graph = np.frombuffer(data, dtype="<u4", offset=24 + id_len)
+        if graph.size != n * k or (graph >= n).any():
+            raise Failure(f"{path}: wrong size or an index outside the bank")
+        return graph.reshape(n, k).astype(np.int64)
+
+    def close(self):
+        """Releases the shard files (pyarrow frees 20 wide footers here: tens of ms)."""
+        self.pool.shutdown()
+        self.files = []
+
+    def column_name(self, axis, k):
+        a = self.axes[axis]
+        return sample_column(a["name"], k, a["samples"])

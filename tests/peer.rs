@@ -1,0 +1,231 @@
+//! The Python peer of `wheelflat identify` (scripts/reference_identify.py, issue 13) runs the
+//! same method: on a small bank it must select the same points and keep the same instances as
+//! the binary. The peer is the reference the speed ratio is measured against; this test keeps
+//! it honest whenever the Rust path changes. Its timings are printed, never asserted.
+
+mod common;
+
+use common::{narrow_calibration, wheelflat};
+use std::io::Write as _;
+use std::path::Path;
+use std::time::Instant;
+use wheelflat::identify::synth::synthesize;
+use wheelflat::identify::Identification;
+use wheelflat::model::{CheckedCalibration, Flat};
+
+/// Whether this run is under CI, where the peer check must run: `CI` set (to anything but
+/// empty, `0` or `false`, as CI services set it) or `WHEELFLAT_PYTHON` set (by `.ci/run`).
+/// The same rule as tests/bank.rs's interop check.
+fn under_ci() -> bool {
+    let ci = std::env::var("CI").is_ok_and(|v| !matches!(v.trim(), "" | "0" | "false"));
+    ci || std::env::var_os("WHEELFLAT_PYTHON").is_some()
+}
+
+/// The interpreter in `WHEELFLAT_PYTHON`, else `python3`, and why it cannot run the peer
+/// (`None` when it imports pyarrow and numpy).
+fn python() -> (String, Option<String>) {
+    let python = std::env::var("WHEELFLAT_PYTHON").unwrap_or_else(|_| "python3".into());
+    let import = std::process::Command::new(&python)
+        .args(["-c", "import pyarrow, numpy"])
+        .output();
+    let missing = match &import {
+        Ok(out) if out.status.success() => None,
+        // The last line of the traceback: the error itself.
+        Ok(out) => Some(
+            String::from_utf8_lossy(&out.stderr)
+                .trim()
+                .lines()
+                .last()
+                .unwrap_or("no error message")
+                .to_string(),
+        ),
+        Err(e) => Some(format!("cannot run it: {e}")),
+    };
+    (python, missing)
+}
+
+/// A synthetic measurement of the narrow population (seeded flat inside its ranges, as in
+/// tests/watch.rs); `with_trigger: false` leaves the alignment to cross-correlation.
+fn measurement(cal: &CheckedCalibration, seed: u64, with_trigger: bool) -> String {
+    let k = seed as f64;
+    let flat = Flat::from_mm(
+        45.0 + (k * 7.3) % 30.0,
+        0.35 + (k * 0.037) % 0.2,
+        0.03,
+        12.32 + (k * 0.013) % 0.16,
+    )
+    .unwrap();
+    synthesize(cal, &flat, seed, with_trigger).unwrap().csv
+}
+
+/// What both implementations decide: the EIP as (series, sample) in selection order, all
+/// candidate points (series, sample) in PIP order, the CMS instance numbers, and φ^(1/m).
+#[derive(Debug, PartialEq)]
+struct Decision {
+    eip: Vec<(usize, usize)>,
+    candidates: Vec<(usize, usize)>,
+    cms: Vec<u64>,
+    per_point_probability: f64,
+}
+
+/// The decision in the binary's `identification.json` (`eip` indexes `candidates`).
+fn rust_decision(id: &Identification) -> Decision {
+    Decision {
+        eip: id
+            .eip
+            .iter()
+            .map(|&i| (id.candidates[i].series, id.candidates[i].sample))
+            .collect(),
+        candidates: id.candidates.iter().map(|c| (c.series, c.sample)).collect(),
+        cms: id.cms.iter().map(|c| u64::from(c.instance)).collect(),
+        per_point_probability: id.per_point_probability,
+    }
+}
+
+/// The decision in the peer's JSON (`eip` holds the points, `candidate_points` columns).
+fn peer_decision(v: &serde_json::Value) -> Decision {
+    let index = |x: &serde_json::Value| x.as_u64().expect("an index") as usize;
+    let column = |name: &str| -> Vec<usize> {
+        v["candidate_points"][name]
+            .as_array()
+            .unwrap_or_else(|| panic!("the peer's JSON has no candidate_points.{name}"))
+            .iter()
+            .map(index)
+            .collect()
+    };
+    Decision {
+        eip: v["eip"]
+            .as_array()
+            .expect("the peer's JSON has an `eip` list")
+            .iter()
+            .map(|e| (index(&e["series"]), index(&e["sample"])))
+            .collect(),
+        candidates: column("series").into_iter().zip(column("sample")).collect(),
+        cms: v["cms_instances"]
+            .as_array()
+            .expect("the peer's JSON has `cms_instances`")
+            .iter()
+            .map(|x| x.as_u64().expect("an instance number"))
+            .collect(),
+        per_point_probability: v["per_point_probability"].as_f64().expect("a probability"),
+    }
+}
+
+#[test]
+fn the_python_peer_selects_the_same_points_and_keeps_the_same_instances() {
+    let (python, missing) = python();
+    if let Some(why) = missing {
+        let install = format!(
+            "install them with `{python} -m pip install 'pyarrow>=15' 'numpy>=1.24'`, or run \
+             `.ci/run`, which installs them into .ci/venv and sets WHEELFLAT_PYTHON"
+        );
+        assert!(
+            !under_ci(),
+            "under CI the Python peer check must run, but `{python}` cannot import pyarrow and \
+             numpy: {why}\n{install}"
+        );
+        // Written past the test harness's output capture, so that the skip is seen.
+        let _ = writeln!(
+            std::io::stderr(),
+            "the_python_peer_selects_the_same_points_and_keeps_the_same_instances skipped: \
+             `{python}` cannot import pyarrow and numpy; {install}"
+        );
+        return;
+    }
+    // 600 narrow-profile instances in three shards: the bank is written with its layout and
+    // neighbour graph, as `bank generate` writes it.
+    let (bank_dir, cal) = common::cached_bank("peer-narrow-600", narrow_calibration, 600, 200);
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/reference_identify.py");
+    let dir = tempfile::tempdir().unwrap();
+    // (name, seed, laser trigger, sensors): trigger and cross-correlation alignment, all
+    // sensors and a subset.
+    let cases = [
+        ("trigger", 3, true, None),
+        ("cross-correlation", 5, false, None),
+        ("two-sensors", 8, true, Some("rps1,rps2")),
+    ];
+    for (name, seed, with_trigger, sensors) in cases {
+        let m = dir.path().join(format!("{name}.csv"));
+        std::fs::write(&m, measurement(cal, seed, with_trigger)).unwrap();
+        let sensor_args: Vec<&str> = sensors.map_or(vec![], |s| vec!["--sensors", s]);
+
+        let rust_out = dir.path().join(format!("{name}-rust"));
+        let t = Instant::now();
+        wheelflat()
+            .args(["identify", "--bank"])
+            .arg(bank_dir)
+            .arg("--measured")
+            .arg(&m)
+            .args(&sensor_args)
+            .arg("--out")
+            .arg(&rust_out)
+            .assert()
+            .success();
+        let rust_s = t.elapsed().as_secs_f64();
+        let id: Identification = serde_json::from_str(
+            &std::fs::read_to_string(rust_out.join("identification.json")).unwrap(),
+        )
+        .unwrap();
+
+        let peer_out = dir.path().join(format!("{name}-peer.json"));
+        let t = Instant::now();
+        let run = std::process::Command::new(&python)
+            .arg(&script)
+            .arg("--bank")
+            .arg(bank_dir)
+            .arg("--measurement")
+            .arg(&m)
+            .args(&sensor_args)
+            .arg("--out")
+            .arg(&peer_out)
+            .output()
+            .unwrap();
+        let peer_s = t.elapsed().as_secs_f64();
+        assert!(
+            run.status.success(),
+            "the peer failed on {name}:\n{}\n{}",
+            String::from_utf8_lossy(&run.stdout),
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let peer: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&peer_out).unwrap()).unwrap();
+
+        let (rust, peer_d) = (rust_decision(&id), peer_decision(&peer));
+        assert!(!rust.eip.is_empty(), "{name}: no points selected");
+        assert!(!rust.cms.is_empty(), "{name}: every instance falsified");
+        let method = if with_trigger {
+            "laser trigger"
+        } else {
+            "cross-correlation"
+        };
+        assert_eq!(
+            id.alignment.method, method,
+            "{name}: the binary's alignment"
+        );
+        assert_eq!(
+            peer["alignment"]["method"], method,
+            "{name}: the peer's alignment"
+        );
+        assert_eq!(peer_d.candidates, rust.candidates, "{name}: the PIPs");
+        assert_eq!(peer_d.eip, rust.eip, "{name}: the EIP (series, sample)");
+        assert_eq!(peer_d.cms, rust.cms, "{name}: the CMS instances");
+        // Both are φ^(1/m) with the same m through the C library's pow: equal to rounding.
+        assert!(
+            (peer_d.per_point_probability - rust.per_point_probability).abs() <= 4.0 * f64::EPSILON,
+            "{name}: per-point probability {} (peer) and {} (Rust)",
+            peer_d.per_point_probability,
+            rust.per_point_probability
+        );
+        // For information only (seen with --nocapture): whole processes, interpreter start and
+        // exit included.
+        eprintln!(
+            "peer check {name}: {} points, {} of {} instances kept; wheelflat identify {:.0} ms, \
+             Python peer {:.0} ms",
+            rust.eip.len(),
+            rust.cms.len(),
+            id.bank_instances,
+            rust_s * 1e3,
+            peer_s * 1e3
+        );
+    }
+}
