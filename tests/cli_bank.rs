@@ -76,7 +76,7 @@ fn generate_info_verify_and_a_corrupt_file_is_named() {
 
     let current = std::fs::read_to_string(bank.join("CURRENT")).unwrap();
     let victim = bank
-        .join(current.trim())
+        .join(current.lines().next().unwrap())
         .join("shard-00001-of-00003.parquet");
     let mut bytes = std::fs::read(&victim).unwrap();
     let mid = bytes.len() / 2;
@@ -283,7 +283,9 @@ fn nightly_script_rebuilds_only_when_the_calibration_changes() {
     let second = std::fs::read_to_string(bank.join("CURRENT")).unwrap();
     assert_ne!(first, second);
     assert!(
-        bank.join(first.trim()).join("manifest.json").is_file(),
+        bank.join(first.lines().next().unwrap())
+            .join("manifest.json")
+            .is_file(),
         "old version kept beside"
     );
 }

@@ -22,11 +22,7 @@ fn manifest_of(version: &Path) -> bank::Manifest {
 }
 
 fn write_manifest(version: &Path, m: &bank::Manifest) {
-    std::fs::write(
-        version.join("manifest.json"),
-        serde_json::to_string_pretty(m).unwrap(),
-    )
-    .unwrap();
+    common::write_manifest(version, m);
 }
 
 /// A plain bank of 45 instances in three shards; its version directory.

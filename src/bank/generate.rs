@@ -206,13 +206,18 @@ fn add_missing_aux(
     cal: &CheckedCalibration,
     opts: &GenerateOptions,
 ) -> Result<bool, BankError> {
-    let mut manifest = super::reader::read_manifest(version)?;
+    let mut manifest = super::version::read_manifest(version)?;
     let mut added = false;
     if manifest.neighbours.is_none() {
         manifest.neighbours = Some(write_neighbours(version, &manifest.bank_id, cal, opts)?);
         added = true;
     }
-    if manifest.layout.is_none() {
+    // A layout of an earlier format (without checksums) is replaced; any other layout stays
+    // as it is (a damaged one is for `bank verify` to report, not for this to paper over).
+    let earlier_format = manifest.layout.as_ref().is_some_and(|aux| {
+        std::fs::read(version.join(&aux.name)).is_ok_and(|b| b.starts_with(b"WFLAYOU1"))
+    });
+    if manifest.layout.is_none() || earlier_format {
         manifest.layout = write_layout(version, &manifest.bank_id, &manifest.files)?;
         added |= manifest.layout.is_some();
     }
@@ -262,9 +267,20 @@ pub fn generate(
     let version = out.join(&version_name);
     let current_path = out.join(CURRENT);
     if opts.machine_shard.is_none() {
-        let current = std::fs::read_to_string(&current_path).unwrap_or_default();
-        if current.trim() == version_name && version.join(MANIFEST).is_file() {
-            let upgraded = add_missing_aux(&version, cal, opts)?;
+        // An unreadable CURRENT is no reason not to build: it is replaced when the bank is.
+        let current = super::version::read_current(out).ok().flatten();
+        if current.as_ref().is_some_and(|c| c.version == version)
+            && version.join(MANIFEST).is_file()
+        {
+            let mut upgraded = add_missing_aux(&version, cal, opts)?;
+            // CURRENT states the manifest's hash (rewritten after the manifest, if it changed,
+            // or if CURRENT predates the hash).
+            let manifest = std::fs::read(version.join(MANIFEST)).map_err(io_err(&version))?;
+            let text = super::version::current_text(&version_name, &manifest);
+            if std::fs::read_to_string(&current_path).ok().as_deref() != Some(text.as_str()) {
+                write_file_atomically(&current_path, text.as_bytes())?;
+                upgraded = true;
+            }
             return Ok(Outcome::UpToDate { version, upgraded });
         }
     }
@@ -464,7 +480,10 @@ pub fn generate(
     };
     let json = serde_json::to_string_pretty(&manifest).expect("manifest serialises");
     write_file_atomically(&version.join(MANIFEST), json.as_bytes())?;
-    write_file_atomically(&current_path, format!("{version_name}\n").as_bytes())?;
+    write_file_atomically(
+        &current_path,
+        super::version::current_text(&version_name, json.as_bytes()).as_bytes(),
+    )?;
     Ok(Outcome::Complete {
         version,
         simulated: to_simulate,

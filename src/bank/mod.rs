@@ -10,6 +10,7 @@
 //! - [`info`]: a bank's size and parameter ranges.
 //! - [`neighbours`]: the instances' neighbour graph, built at generation, stored with the bank.
 //! - [`layout`]: where every column's values lie in the shards, so a reader skips the footers.
+//! - [`version`]: `CURRENT`, the manifest and the files beside the shards, checked as read.
 //! - [`verify`]: every file checked against the manifest in full.
 
 pub mod generate;
@@ -20,6 +21,7 @@ pub mod population;
 pub mod reader;
 pub mod schema;
 pub mod verify;
+pub mod version;
 pub mod writer;
 
 pub use generate::{generate, GenerateObserver, GenerateOptions, Outcome, Quiet};

@@ -1,8 +1,9 @@
 //! `bank verify`: every file of a bank checked against its manifest, in full.
 
 use super::layout::{derive, Derived};
-use super::reader::{read_layout, read_manifest, read_neighbours, resolve_version};
 use super::schema::{open_shard, sha256_hex, Manifest};
+use super::schema::{shard_file_name, FORMAT_VERSION, MANIFEST};
+use super::version::{read_current, read_layout, read_manifest, read_neighbours, resolve};
 use super::BankError;
 use std::path::{Path, PathBuf};
 
@@ -16,12 +17,71 @@ pub struct VerifyProblem {
 }
 
 /// Checks every file of a bank against its manifest (presence, size, SHA-256, readable footer
-/// naming this bank; the neighbour graph; the column layout against the footers). Returns the
-/// problems found (empty: the bank is intact).
+/// naming this bank and its place in it; the neighbour graph; the column layout against the
+/// footers), the manifest against `CURRENT` and against itself (format, instance count, shard
+/// names and ranges). Returns the problems found (empty: the bank is intact).
 pub fn verify(dir: &Path) -> Result<(Manifest, Vec<VerifyProblem>), BankError> {
-    let version = resolve_version(dir)?;
+    let current = resolve(dir)?;
+    let version = current.version.clone();
     let manifest = read_manifest(&version)?;
     let mut problems = Vec::new();
+    let manifest_path = version.join(MANIFEST);
+    let mut problem = |path: &Path, message: String| {
+        problems.push(VerifyProblem {
+            path: path.to_path_buf(),
+            message,
+        })
+    };
+    if read_current(dir)?.is_some() {
+        match &current.manifest_sha256 {
+            None => problem(
+                &dir.join(super::schema::CURRENT),
+                "states no manifest hash (written by an earlier wheelflat): `wheelflat bank generate` with the bank's arguments adds it".into(),
+            ),
+            Some(want) => {
+                let got = std::fs::read(&manifest_path)
+                    .map(|b| super::schema::sha256_hex(&b))
+                    .unwrap_or_default();
+                if &got != want {
+                    problem(&manifest_path, format!("sha256 {got}, CURRENT says {want}"));
+                }
+            }
+        }
+    }
+    if manifest.format_version != FORMAT_VERSION {
+        problem(
+            &manifest_path,
+            format!(
+                "format {}, this wheelflat reads {FORMAT_VERSION}",
+                manifest.format_version
+            ),
+        );
+    }
+    let rows: usize = manifest.files.iter().map(|f| f.rows).sum();
+    if rows != manifest.instances || manifest.files.is_empty() {
+        problem(
+            &manifest_path,
+            format!(
+                "{} instances, but its {} shard files hold {rows}",
+                manifest.instances,
+                manifest.files.len()
+            ),
+        );
+    }
+    let mut first = 0;
+    for (i, f) in manifest.files.iter().enumerate() {
+        let name = shard_file_name(i, manifest.files.len());
+        if f.name != name || f.first_instance != first {
+            problem(
+                &manifest_path,
+                format!(
+                    "entry {i} is {} from instance {}; expected {name} from instance {first}",
+                    f.name, f.first_instance
+                ),
+            );
+        }
+        first += f.rows;
+    }
     let mut footers = Vec::with_capacity(manifest.files.len());
     for (index, f) in manifest.files.iter().enumerate() {
         let path = version.join(&f.name);
@@ -62,7 +122,46 @@ pub fn verify(dir: &Path) -> Result<(Manifest, Vec<VerifyProblem>), BankError> {
                 path,
                 message: e.to_string(),
             }),
-            Ok((bytes, meta, _)) => footers.push((index, path, bytes, meta)),
+            Ok((bytes, meta, bank_meta)) => {
+                let footer_rows = meta.metadata().file_metadata().num_rows() as usize;
+                let place = bank_meta.shard;
+                let mismatch = if bank_meta.bank_id != manifest.bank_id {
+                    Some(format!(
+                        "belongs to bank {}, the manifest is bank {}",
+                        bank_meta.bank_id, manifest.bank_id
+                    ))
+                } else if bank_meta.calibration_sha256 != manifest.calibration_sha256 {
+                    Some("its calibration hash differs from the manifest's".to_string())
+                } else if place.index != index
+                    || place.count != manifest.files.len()
+                    || place.first_instance != f.first_instance
+                    || place.rows != f.rows
+                    || footer_rows != f.rows
+                    || bank_meta.instances != manifest.instances
+                {
+                    Some(format!(
+                        "holds shard {} of {} (instances {}.., {} rows; {footer_rows} in its footer) of a {}-instance bank; the manifest lists it as shard {index} of {} (instances {}.., {} rows) of {}",
+                        place.index,
+                        place.count,
+                        place.first_instance,
+                        place.rows,
+                        bank_meta.instances,
+                        manifest.files.len(),
+                        f.first_instance,
+                        f.rows,
+                        manifest.instances
+                    ))
+                } else {
+                    None
+                };
+                if let Some(message) = mismatch {
+                    problems.push(VerifyProblem {
+                        path: path.clone(),
+                        message,
+                    });
+                }
+                footers.push((index, path, bytes, meta));
+            }
         }
     }
     if let Some(aux) = &manifest.neighbours {

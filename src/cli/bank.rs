@@ -44,7 +44,7 @@ pub(super) fn generate(a: &GenerateArgs, simulate_missing: bool) -> Result<()> {
         Outcome::UpToDate { version, upgraded } => {
             if upgraded {
                 println!(
-                    "bank {} is up to date ({}); added the neighbour graph and column layout this wheelflat stores beside the shards ({secs:.1} s)",
+                    "bank {} is up to date ({}); added or renewed what this wheelflat stores beside the shards (neighbour graph, column layout, manifest hash in CURRENT) ({secs:.1} s)",
                     a.out.display(),
                     version.display()
                 );

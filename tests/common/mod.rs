@@ -114,3 +114,21 @@ pub fn files(dir: &Path, skip: &[&str]) -> Vec<(PathBuf, Vec<u8>)> {
     out.sort();
     out
 }
+
+/// Writes a manifest into a bank's version directory the way a writer does: the manifest,
+/// then, when `CURRENT` names this version, `CURRENT` with its hash (readers refuse a manifest
+/// `CURRENT` does not vouch for).
+pub fn write_manifest(version: &Path, manifest: &wheelflat::bank::Manifest) {
+    let text = serde_json::to_string_pretty(manifest).unwrap();
+    std::fs::write(version.join("manifest.json"), &text).unwrap();
+    let name = version.file_name().unwrap().to_string_lossy().to_string();
+    let bank = version.parent().unwrap();
+    let current = std::fs::read_to_string(bank.join("CURRENT")).unwrap_or_default();
+    if current.lines().next() == Some(name.as_str()) {
+        std::fs::write(
+            bank.join("CURRENT"),
+            wheelflat::bank::version::current_text(&name, text.as_bytes()),
+        )
+        .unwrap();
+    }
+}
