@@ -152,8 +152,8 @@ pub(super) struct GenerateArgs {
     /// Bank directory.
     #[arg(long, default_value = "bank")]
     pub out: PathBuf,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// Worker threads, 1 to 1024 (default: all cores).
+    #[arg(long, value_parser = parse_threads)]
     pub threads: Option<usize>,
     /// Build only part I of N (0-based), e.g. `--shard 3/10`, for a cluster job array.
     #[arg(long, value_parser = parse_shard)]
@@ -191,6 +191,18 @@ impl GenerateArgs {
 }
 
 /// Parses `--shard I/N`.
+/// The most worker threads a run may ask for.
+const MAX_THREADS: usize = 1024;
+
+fn parse_threads(s: &str) -> std::result::Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(n) if (1..=MAX_THREADS).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "`{s}`: a whole number of threads from 1 to {MAX_THREADS}"
+        )),
+    }
+}
+
 fn parse_shard(s: &str) -> std::result::Result<(usize, usize), String> {
     let (i, n) = s
         .split_once('/')

@@ -38,8 +38,7 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
 
 /// `wheelflat report`: the figures and HTML of an identification JSON.
 pub(super) fn report_from_json(from: &Path, out: Option<&Path>) -> Result<()> {
-    let text = std::fs::read_to_string(from)
-        .with_context(|| format!("cannot read identification {}", from.display()))?;
+    let text = super::read_text(from, super::MAX_JSON_BYTES, "identification")?;
     let id: Identification = serde_json::from_str(&text).with_context(|| {
         format!(
             "{} is not an identification.json written by wheelflat identify or watch",
@@ -82,8 +81,7 @@ pub(super) fn compare(a: &CompareArgs) -> Result<()> {
     let (identifier, m) = open_identifier(&i.bank, &i.measured, i.calibration.as_deref())?;
     let truth = match &a.truth {
         Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("cannot read truth {}", p.display()))?;
+            let text = super::read_text(p, super::MAX_SMALL_FILE_BYTES, "truth file")?;
             Some(
                 serde_json::from_str::<Truth>(&text)
                     .with_context(|| format!("in truth file {}", p.display()))?,

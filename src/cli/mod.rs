@@ -78,13 +78,55 @@ pub fn main() -> ExitCode {
     }
 }
 
+/// Size limits of the files wheelflat reads (bytes): a 5-sensor, 10 s measurement at 2.5 kHz
+/// is about 2 MB, a whole train's recording a few times that, a calibration a few kB.
+pub(crate) const MAX_MEASUREMENT_BYTES: u64 = 64 << 20;
+/// A trigger file: one line per wheel.
+pub(crate) const MAX_TRIGGER_BYTES: u64 = 1 << 20;
+/// A calibration file, a truth file.
+pub(crate) const MAX_SMALL_FILE_BYTES: u64 = 1 << 20;
+/// An identification.json (its series and candidate model set).
+pub(crate) const MAX_JSON_BYTES: u64 = 256 << 20;
+
+/// Reads a text file that must be a regular file of at most `limit` bytes: a device, a pipe or
+/// a directory (`/dev/zero` would read forever) and an oversized file are refused, naming the
+/// file, before anything is read.
+pub(crate) fn read_text(path: &Path, limit: u64, what: &str) -> Result<String> {
+    let meta = std::fs::metadata(path)
+        .with_context(|| format!("cannot read {what} {}", path.display()))?;
+    if !meta.is_file() {
+        anyhow::bail!(
+            "{what} {} is not a regular file (a device, pipe or directory cannot be read as one)",
+            path.display()
+        );
+    }
+    if meta.len() > limit {
+        anyhow::bail!(
+            "{what} {}: {} bytes, more than the {limit} a {what} may have",
+            path.display(),
+            meta.len()
+        );
+    }
+    let mut text = String::new();
+    use std::io::Read as _;
+    std::fs::File::open(path)
+        .and_then(|f| f.take(limit + 1).read_to_string(&mut text))
+        .with_context(|| format!("cannot read {what} {}", path.display()))?;
+    if text.len() as u64 > limit {
+        anyhow::bail!(
+            "{what} {} grew past {limit} bytes while it was read",
+            path.display()
+        );
+    }
+    Ok(text)
+}
+
 /// Reads and checks a calibration file, or returns the built-in defaults.
 pub fn load_calibration(path: Option<&Path>) -> Result<CheckedCalibration> {
     let Some(path) = path else {
         return Ok(Calibration::default().check()?);
     };
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read calibration file {}", path.display()))?;
+    let text = read_text(path, MAX_SMALL_FILE_BYTES, "calibration file")?;
     let doc = Calibration::from_toml_str(&text)
         .with_context(|| format!("in calibration file {}", path.display()))?;
     doc.check()
@@ -131,7 +173,6 @@ fn open_bank_identifier(bank_dir: &Path, calibration: Option<&Path>) -> Result<I
 /// Reads a measurement on the sample rate of the identifier's bank.
 fn read_measurement(identifier: &Identifier, path: &Path) -> Result<Measurement> {
     let rate = identifier.bank().metadata().sensors[0].sample_rate_hz;
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read measurement {}", path.display()))?;
+    let text = read_text(path, MAX_MEASUREMENT_BYTES, "measurement")?;
     Ok(Measurement::from_csv(path, &text, rate)?)
 }

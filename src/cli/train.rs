@@ -60,11 +60,9 @@ pub(super) fn identify_pass(
         .check()
         .context("the bank's stored calibration")?;
     let rate = meta.sensors[0].sample_rate_hz;
-    let text = std::fs::read_to_string(recording)
-        .with_context(|| format!("cannot read recording {}", recording.display()))?;
+    let text = super::read_text(recording, super::MAX_MEASUREMENT_BYTES, "recording")?;
     let m = Measurement::from_csv(recording, &text, rate)?;
-    let ttext = std::fs::read_to_string(triggers)
-        .with_context(|| format!("cannot read triggers {}", triggers.display()))?;
+    let ttext = super::read_text(triggers, super::MAX_TRIGGER_BYTES, "trigger file")?;
     let times = crate::train::read_triggers(triggers, &ttext)?;
     let bogies = crate::train::bogies_from_triggers(&cal, triggers, &times)?;
     Ok(crate::train::identify_train(identifier, &m, &bogies)?)

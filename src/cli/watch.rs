@@ -21,17 +21,11 @@
 use super::args::WatchArgs;
 use crate::bank::reader::resolve_version;
 use crate::identify::{Extras, Identifier};
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-
-/// The largest measurement accepted (a 5-sensor, 10 s record at 2.5 kHz is about 2 MB).
-const MAX_MEASUREMENT_BYTES: u64 = 64 << 20;
-
-/// The largest trigger file accepted (one line per wheel: a few kB for the longest train).
-const MAX_TRIGGER_BYTES: u64 = 1 << 20;
 
 /// What marks a recording as a train pass: `NAME.csv` with `NAME` + this beside it.
 const TRIGGERS_SUFFIX: &str = ".triggers.csv";
@@ -72,20 +66,6 @@ fn waiting(inbox: &Path) -> Result<Vec<PathBuf>> {
     Ok(out)
 }
 
-/// Refuses a file larger than `limit` bytes before it is read.
-fn check_size(path: &Path, limit: u64, what: &str) -> Result<()> {
-    let size = std::fs::metadata(path)
-        .with_context(|| format!("cannot read {}", path.display()))?
-        .len();
-    if size > limit {
-        bail!(
-            "{}: {size} bytes, more than the {limit} a {what} may have",
-            path.display()
-        );
-    }
-    Ok(())
-}
-
 /// Identifies one measurement (or, with `triggers`, one train pass) and writes its result;
 /// the verdict line.
 fn identify_one(
@@ -95,9 +75,7 @@ fn identify_one(
     a: &WatchArgs,
     out: &Path,
 ) -> Result<String> {
-    check_size(path, MAX_MEASUREMENT_BYTES, "measurement")?;
     if let Some(triggers) = triggers {
-        check_size(triggers, MAX_TRIGGER_BYTES, "trigger file")?;
         crate::train::check_coverage(open.identifier.bank(), &a.bank)?;
         let result = super::train::identify_pass(&open.identifier, path, triggers)?;
         std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;

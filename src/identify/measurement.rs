@@ -17,6 +17,12 @@ use super::IdentifyError;
 use crate::bank::schema::SensorAxis;
 use std::path::{Path, PathBuf};
 
+/// The most sensor columns a measurement may have (a wayside site has a handful).
+pub const MAX_SENSOR_COLUMNS: usize = 64;
+
+/// The longest line a measurement may have (64 columns of numbers need about 2 kB).
+pub const MAX_LINE_BYTES: usize = 16 << 10;
+
 /// A checked measurement: finite samples, strictly increasing time on a uniform grid.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Measurement {
@@ -58,6 +64,16 @@ impl Measurement {
         let mut columns: Vec<Vec<f64>> = Vec::new();
         for (i, raw) in text.lines().enumerate() {
             let line_no = i + 1;
+            if raw.len() > MAX_LINE_BYTES {
+                return Err(bad(
+                    path,
+                    line_no,
+                    format!(
+                        "{} bytes on one line, more than the {MAX_LINE_BYTES} a line may have",
+                        raw.len()
+                    ),
+                ));
+            }
             let line = raw.trim();
             if line.is_empty() {
                 continue;
@@ -97,7 +113,18 @@ impl Measurement {
                         ),
                     ));
                 }
+                if fields.len() - 1 > MAX_SENSOR_COLUMNS {
+                    return Err(bad(
+                        path,
+                        line_no,
+                        format!(
+                            "{} sensor columns, more than the {MAX_SENSOR_COLUMNS} a measurement may have",
+                            fields.len() - 1
+                        ),
+                    ));
+                }
                 let mut names = Vec::new();
+                let mut seen = std::collections::HashSet::new();
                 for f in &fields[1..] {
                     let name = match f.strip_suffix("_kn") {
                         Some(n) if !n.is_empty() => n,
@@ -116,7 +143,7 @@ impl Measurement {
                             ))
                         }
                     };
-                    if names.iter().any(|n: &String| n == name) {
+                    if !seen.insert(name) {
                         return Err(bad(path, line_no, format!("sensor `{name}` appears twice")));
                     }
                     names.push(name.to_string());

@@ -23,9 +23,9 @@ impl Calibration {
             t.ballast_stiffness_n_per_m,
         )?;
         non_negative("track.ballast_damping_ns_per_m", t.ballast_damping_ns_per_m)?;
-        if t.bays < 2 {
-            return Err(invalid("track.bays", t.bays, "at least 2 bays are needed"));
-        }
+        // Physical ranges and resource bounds, checked before anything is allocated.
+        within("track.bays", t.bays as f64, 2.0, MAX_BAYS as f64)?;
+        within("track.sleeper_spacing_m", t.sleeper_spacing_m, 0.3, 1.5)?;
 
         let v = &self.vehicle;
         positive("vehicle.bogie_mass_kg", v.bogie_mass_kg)?;
@@ -51,6 +51,7 @@ impl Calibration {
         }
 
         positive("run.speed_km_per_h", self.run.speed_km_per_h)?;
+        within("run.speed_km_per_h", self.run.speed_km_per_h, 1.0, 500.0)?;
         let rail_m = t.bays as f64 * t.sleeper_spacing_m;
         finite("run.leading_wheel_start_m", self.run.leading_wheel_start_m)?;
         let trailing_start = self.run.leading_wheel_start_m - 2.0 * v.half_wheelbase_m;
@@ -113,7 +114,18 @@ impl Calibration {
         }
 
         positive("output.sample_rate_hz", self.output.sample_rate_hz)?;
-        positive("output.window_samples", self.output.window_samples as f64)?;
+        within(
+            "output.sample_rate_hz",
+            self.output.sample_rate_hz,
+            100.0,
+            100_000.0,
+        )?;
+        within(
+            "output.window_samples",
+            self.output.window_samples as f64,
+            1.0,
+            100_000.0,
+        )?;
 
         let n = &self.integration;
         positive("integration.elements_per_bay", n.elements_per_bay as f64)?;
@@ -127,6 +139,52 @@ impl Calibration {
         )?;
         non_negative("integration.fine_before_strike_s", n.fine_before_strike_s)?;
         non_negative("integration.fine_after_strike_s", n.fine_after_strike_s)?;
+        within(
+            "integration.elements_per_bay",
+            n.elements_per_bay as f64,
+            1.0,
+            64.0,
+        )?;
+        within(
+            "integration.coarse_steps_per_sample",
+            n.coarse_steps_per_sample as f64,
+            1.0,
+            1000.0,
+        )?;
+        within(
+            "integration.fine_steps_per_coarse",
+            n.fine_steps_per_coarse as f64,
+            1.0,
+            1000.0,
+        )?;
+        // One run's size: rail elements, and time steps if every step were a fine one (the
+        // run lasts at most the time to cross the rail).
+        let elements = t.bays * n.elements_per_bay;
+        if elements > MAX_ELEMENTS {
+            return Err(invalid(
+                "integration.elements_per_bay",
+                n.elements_per_bay,
+                &format!(
+                    "{} bays × {} elements = {elements} rail elements, more than the {MAX_ELEMENTS} a run may have",
+                    t.bays, n.elements_per_bay
+                ),
+            ));
+        }
+        let crossing_s = rail_m / (self.run.speed_km_per_h / 3.6);
+        let steps = crossing_s
+            * self.output.sample_rate_hz
+            * n.coarse_steps_per_sample as f64
+            * n.fine_steps_per_coarse as f64;
+        if steps > MAX_STEPS {
+            return Err(invalid(
+                "integration.fine_steps_per_coarse",
+                n.fine_steps_per_coarse,
+                &format!(
+                    "a run of up to {crossing_s:.1} s at {} Hz × {} × {} steps is {steps:.3e} fine steps, more than the {MAX_STEPS:.0e} a run may take",
+                    self.output.sample_rate_hz, n.coarse_steps_per_sample, n.fine_steps_per_coarse
+                ),
+            ));
+        }
 
         let p = &self.population;
         range("population.length_mm", p.length_mm, 0.0)?;
@@ -239,13 +297,12 @@ impl Calibration {
         if !(id.phi > 0.0 && id.phi < 1.0) {
             return Err(invalid("identification.phi", id.phi, "must lie in (0, 1)"));
         }
-        if id.pips_per_series < 3 {
-            return Err(invalid(
-                "identification.pips_per_series",
-                id.pips_per_series,
-                "at least 3",
-            ));
-        }
+        within(
+            "identification.pips_per_series",
+            id.pips_per_series as f64,
+            3.0,
+            1000.0,
+        )?;
         if !["vertical", "perpendicular", "euclidean"].contains(&id.pip_distance.as_str()) {
             return Err(invalid(
                 "identification.pip_distance",
@@ -256,13 +313,12 @@ impl Calibration {
         non_negative("identification.alpha_fraction", id.alpha_fraction)?;
         non_negative("identification.bank_resolution", id.bank_resolution)?;
 
-        if id.monte_carlo_samples < 1000 {
-            return Err(invalid(
-                "identification.monte_carlo_samples",
-                id.monte_carlo_samples,
-                "at least 1000",
-            ));
-        }
+        within(
+            "identification.monte_carlo_samples",
+            id.monte_carlo_samples as f64,
+            1000.0,
+            1_000_000.0,
+        )?;
         non_negative("identification.urgent_l0_mm", id.urgent_l0_mm)?;
         non_negative("identification.inspect_l0_mm", id.inspect_l0_mm)?;
         for (i, u) in id.uncertainty.iter().enumerate() {
@@ -324,6 +380,24 @@ fn finite(key: &str, v: f64) -> Result<(), CalibrationError> {
         Ok(())
     } else {
         Err(invalid(key, v, "must be a finite number"))
+    }
+}
+
+/// The most bays a modelled rail may have (the default has 34).
+const MAX_BAYS: usize = 2000;
+/// The most rail elements of one run (the default has 136; the convergence reference 544).
+const MAX_ELEMENTS: usize = 20_000;
+/// The most time steps of one run, counted as if every step were fine (the default takes
+/// about 43,000; the convergence reference 680,000): a bound against runs that never end.
+const MAX_STEPS: f64 = 2e8;
+
+/// A value inside `[lo, hi]`, the range named in the error.
+fn within(key: &str, v: f64, lo: f64, hi: f64) -> Result<(), CalibrationError> {
+    finite(key, v)?;
+    if (lo..=hi).contains(&v) {
+        Ok(())
+    } else {
+        Err(invalid(key, v, &format!("must lie in [{lo}, {hi}]")))
     }
 }
 
