@@ -7,7 +7,8 @@
 #
 #   scripts/regenerate-nightly.sh CALIBRATION.toml BANK_DIR [extra `bank generate` args]
 #
-# Environment: WHEELFLAT (the binary; default `wheelflat` on PATH).
+# Environment: WHEELFLAT (the binary; default `wheelflat` on PATH), WHEELFLAT_KEEP (complete
+# versions to keep, CURRENT's included; default 2).
 # Crontab line (01:15 every night, log appended):
 #   15 1 * * *  /opt/wheelflat/scripts/regenerate-nightly.sh /etc/wheelflat/track.toml /srv/wheelflat/bank >>/var/log/wheelflat-bank.log 2>&1
 set -euo pipefail
@@ -25,4 +26,6 @@ fi
 echo "$(date -Is) regenerating $bank from $calibration"
 "$wheelflat" bank generate --calibration "$calibration" --out "$bank" "$@"
 "$wheelflat" bank verify "$bank"
+# Old versions go (1 GB each at 50k); the one CURRENT names and the one before it stay.
+"$wheelflat" bank prune --keep "${WHEELFLAT_KEEP:-2}" "$bank"
 echo "$(date -Is) done"

@@ -40,8 +40,8 @@ fn same_inputs_give_identical_bytes_with_one_or_two_threads() {
     let (sa, sb) = (files(a.path(), &[]), files(b.path(), &[]));
     assert_eq!(
         sa.len(),
-        3 + 4,
-        "3 shard files + neighbour graph + column layout + manifest + CURRENT"
+        3 + 5,
+        "3 shard files + neighbour graph + column layout + manifest + CURRENT + writer lock"
     );
     assert!(sa == sb, "banks differ between 1 and 2 threads");
 }
@@ -340,43 +340,20 @@ fn the_stored_neighbour_graph_is_the_one_searched_from_the_stored_parameters() {
     assert!(problems[0].path == path, "{problems:?}");
 }
 
-/// Whether this run is under CI, where the interop check must run: `CI` set (to anything but
-/// empty, `0` or `false`, as CI services set it) or `WHEELFLAT_PYTHON` set (by `.ci/run`).
-fn under_ci() -> bool {
-    let ci = std::env::var("CI").is_ok_and(|v| !matches!(v.trim(), "" | "0" | "false"));
-    ci || std::env::var_os("WHEELFLAT_PYTHON").is_some()
-}
-
 /// The interop check runs a Python script with pyarrow, with the interpreter in
 /// `WHEELFLAT_PYTHON` (`.ci/run` points it at a virtual environment that has pyarrow), else
-/// `python3`. Under CI ([`under_ci`]) an interpreter without pyarrow fails the test; elsewhere
+/// `python3`. Under CI ([`common::under_ci`]) an interpreter without pyarrow fails the test; elsewhere
 /// the test is skipped with a notice on the terminal.
 #[test]
 fn pyarrow_reads_shape_column_names_and_metadata() {
-    let python = std::env::var("WHEELFLAT_PYTHON").unwrap_or_else(|_| "python3".into());
-    let import = std::process::Command::new(&python)
-        .args(["-c", "import pyarrow"])
-        .output();
-    let missing = match &import {
-        Ok(out) if out.status.success() => None,
-        // The last line of the traceback: the error itself.
-        Ok(out) => Some(
-            String::from_utf8_lossy(&out.stderr)
-                .trim()
-                .lines()
-                .last()
-                .unwrap_or("no error message")
-                .to_string(),
-        ),
-        Err(e) => Some(format!("cannot run it: {e}")),
-    };
+    let (python, missing) = common::python_with("pyarrow");
     if let Some(why) = missing {
         let install = format!(
             "install it with `{python} -m pip install 'pyarrow>=15'`, or run `.ci/run`, which \
              installs it into .ci/venv and sets WHEELFLAT_PYTHON"
         );
         assert!(
-            !under_ci(),
+            !common::under_ci(),
             "under CI the pyarrow interop check must run, but `{python}` cannot import \
              pyarrow: {why}\n{install}"
         );

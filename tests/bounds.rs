@@ -68,7 +68,7 @@ fn calibration_values_outside_their_range_or_resource_bound_are_refused_by_name(
         (
             "spacing",
             Box::new(|c| c.track.sleeper_spacing_m = 1e6),
-            &["track.sleeper_spacing_m", "1000000", "[0.3, 1.5]"],
+            &["track.sleeper_spacing_m", "1000000", "[0.05, 5]"],
         ),
         (
             "rate",

@@ -5,58 +5,11 @@
 
 mod common;
 
-use common::{narrow_calibration, wheelflat};
+use common::{narrow_calibration, narrow_measurement, python_with, under_ci, wheelflat};
 use std::io::Write as _;
 use std::path::Path;
 use std::time::Instant;
-use wheelflat::identify::synth::synthesize;
 use wheelflat::identify::Identification;
-use wheelflat::model::{CheckedCalibration, Flat};
-
-/// Whether this run is under CI, where the peer check must run: `CI` set (to anything but
-/// empty, `0` or `false`, as CI services set it) or `WHEELFLAT_PYTHON` set (by `.ci/run`).
-/// The same rule as tests/bank.rs's interop check.
-fn under_ci() -> bool {
-    let ci = std::env::var("CI").is_ok_and(|v| !matches!(v.trim(), "" | "0" | "false"));
-    ci || std::env::var_os("WHEELFLAT_PYTHON").is_some()
-}
-
-/// The interpreter in `WHEELFLAT_PYTHON`, else `python3`, and why it cannot run the peer
-/// (`None` when it imports pyarrow and numpy).
-fn python() -> (String, Option<String>) {
-    let python = std::env::var("WHEELFLAT_PYTHON").unwrap_or_else(|_| "python3".into());
-    let import = std::process::Command::new(&python)
-        .args(["-c", "import pyarrow, numpy"])
-        .output();
-    let missing = match &import {
-        Ok(out) if out.status.success() => None,
-        // The last line of the traceback: the error itself.
-        Ok(out) => Some(
-            String::from_utf8_lossy(&out.stderr)
-                .trim()
-                .lines()
-                .last()
-                .unwrap_or("no error message")
-                .to_string(),
-        ),
-        Err(e) => Some(format!("cannot run it: {e}")),
-    };
-    (python, missing)
-}
-
-/// A synthetic measurement of the narrow population (seeded flat inside its ranges, as in
-/// tests/watch.rs); `with_trigger: false` leaves the alignment to cross-correlation.
-fn measurement(cal: &CheckedCalibration, seed: u64, with_trigger: bool) -> String {
-    let k = seed as f64;
-    let flat = Flat::from_mm(
-        45.0 + (k * 7.3) % 30.0,
-        0.35 + (k * 0.037) % 0.2,
-        0.03,
-        12.32 + (k * 0.013) % 0.16,
-    )
-    .unwrap();
-    synthesize(cal, &flat, seed, with_trigger).unwrap().csv
-}
 
 /// What both implementations decide: the EIP as (series, sample) in selection order, all
 /// candidate points (series, sample) in PIP order, the CMS instance numbers, and φ^(1/m).
@@ -113,7 +66,7 @@ fn peer_decision(v: &serde_json::Value) -> Decision {
 
 #[test]
 fn the_python_peer_selects_the_same_points_and_keeps_the_same_instances() {
-    let (python, missing) = python();
+    let (python, missing) = python_with("pyarrow, numpy");
     if let Some(why) = missing {
         let install = format!(
             "install them with `{python} -m pip install 'pyarrow>=15' 'numpy>=1.24'`, or run \
@@ -146,7 +99,7 @@ fn the_python_peer_selects_the_same_points_and_keeps_the_same_instances() {
     ];
     for (name, seed, with_trigger, sensors) in cases {
         let m = dir.path().join(format!("{name}.csv"));
-        std::fs::write(&m, measurement(cal, seed, with_trigger)).unwrap();
+        std::fs::write(&m, narrow_measurement(cal, seed, with_trigger)).unwrap();
         let sensor_args: Vec<&str> = sensors.map_or(vec![], |s| vec!["--sensors", s]);
 
         let rust_out = dir.path().join(format!("{name}-rust"));

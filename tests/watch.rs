@@ -10,21 +10,12 @@ use std::io::{BufRead, Write as _};
 use std::path::Path;
 use std::time::{Duration, Instant};
 use wheelflat::bank::{self, Bank, Quiet};
-use wheelflat::identify::synth::synthesize;
 use wheelflat::identify::Identification;
-use wheelflat::model::{CheckedCalibration, Flat};
+use wheelflat::model::CheckedCalibration;
 
-/// A synthetic measurement of the narrow population (seeded flat inside its ranges).
+/// A synthetic measurement of the narrow population, with the laser trigger.
 fn measurement(cal: &CheckedCalibration, seed: u64) -> String {
-    let k = seed as f64;
-    let flat = Flat::from_mm(
-        45.0 + (k * 7.3) % 30.0,
-        0.35 + (k * 0.037) % 0.2,
-        0.03,
-        12.32 + (k * 0.013) % 0.16,
-    )
-    .unwrap();
-    synthesize(cal, &flat, seed, true).unwrap().csv
+    common::narrow_measurement(cal, seed, true)
 }
 
 fn small_bank(cal: &CheckedCalibration, dir: &Path, instances: usize) {

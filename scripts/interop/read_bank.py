@@ -5,6 +5,7 @@ row and column counts, the column names, and the wheelflat metadata (JSON under 
 
     python3 scripts/interop/read_bank.py BANK_DIR
 """
+import hashlib
 import json
 import pathlib
 import sys
@@ -13,9 +14,23 @@ import pyarrow.dataset as ds
 import pyarrow.parquet as pq
 
 
+def resolve(bank):
+    """CURRENT's version directory and the manifest SHA-256 it states (docs/bank.md)."""
+    current = bank / "CURRENT"
+    if not current.exists():
+        return bank, None
+    lines = current.read_text().split()
+    digest = lines[2] if len(lines) == 3 and lines[1] == "manifest-sha256" else None
+    return bank / lines[0], digest
+
+
 def main(bank: pathlib.Path) -> int:
-    version = bank / (bank / "CURRENT").read_text().strip() if (bank / "CURRENT").exists() else bank
-    manifest = json.loads((version / "manifest.json").read_text())
+    version, digest = resolve(bank)
+    raw = (version / "manifest.json").read_bytes()
+    if digest is not None and hashlib.sha256(raw).hexdigest() != digest:
+        print(f"manifest sha256 differs from CURRENT's {digest}")
+        return 1
+    manifest = json.loads(raw)
     files = [str(version / f["name"]) for f in manifest["files"]]
     dataset = ds.dataset(files, format="parquet")
     table = dataset.to_table()

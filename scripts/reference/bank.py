@@ -28,7 +28,8 @@ def resolve_version(bank_dir):
     """`DIR/CURRENT`'s target, or `DIR` itself when it holds a manifest."""
     current = bank_dir / "CURRENT"
     if current.is_file():
-        return bank_dir / current.read_text().strip()
+        # The first line names the version; a second states the manifest's SHA-256.
+        return bank_dir / current.read_text().split()[0]
     if (bank_dir / "manifest.json").is_file():
         return bank_dir
     raise Failure(f"{bank_dir} is not a wheelflat bank (no CURRENT file and no manifest.json)")

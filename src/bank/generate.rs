@@ -262,6 +262,15 @@ pub fn generate(
             opts.instances
         )));
     }
+    // One writer at a time (the tasks of a job array share the lock): taken before anything
+    // is looked at, held to the end.
+    std::fs::create_dir_all(out).map_err(io_err(out))?;
+    let access = if opts.machine_shard.is_some() {
+        super::lock::Access::Shared
+    } else {
+        super::lock::Access::Exclusive
+    };
+    let _lock = super::lock::lock(out, access)?;
     let id = id_for(cal, opts);
     let version_name = format!("v-{id}");
     let version = out.join(&version_name);
@@ -285,14 +294,6 @@ pub fn generate(
         }
     }
     std::fs::create_dir_all(&version).map_err(io_err(&version))?;
-    // Leftovers of an interrupted run: temporary files are never complete.
-    for entry in std::fs::read_dir(&version).map_err(io_err(&version))? {
-        let entry = entry.map_err(io_err(&version))?;
-        let name = entry.file_name().to_string_lossy().to_string();
-        if crate::atomic::is_temporary(&name) {
-            std::fs::remove_file(entry.path()).map_err(io_err(&entry.path()))?;
-        }
-    }
 
     let count = opts.instances.div_ceil(opts.shard_size);
     let files: Vec<usize> = match opts.machine_shard {
@@ -306,6 +307,20 @@ pub fn generate(
             (i * count / n..(i + 1) * count / n).collect()
         }
     };
+    // Leftovers of an interrupted run: temporary files are never complete. A task of a job
+    // array removes only those of its own shard files (its neighbours may be writing theirs).
+    let own: Vec<String> = files
+        .iter()
+        .map(|&f| format!(".{}.tmp-", shard_file_name(f, count)))
+        .collect();
+    for entry in std::fs::read_dir(&version).map_err(io_err(&version))? {
+        let entry = entry.map_err(io_err(&version))?;
+        let name = entry.file_name().to_string_lossy().to_string();
+        let mine = opts.machine_shard.is_none() || own.iter().any(|p| name.starts_with(p));
+        if crate::atomic::is_temporary(&name) && mine {
+            std::fs::remove_file(entry.path()).map_err(io_err(&entry.path()))?;
+        }
+    }
     let shard_info = |index: usize| {
         let first = index * opts.shard_size;
         ShardInfo {

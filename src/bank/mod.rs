@@ -12,12 +12,15 @@
 //! - [`layout`]: where every column's values lie in the shards, so a reader skips the footers.
 //! - [`version`]: `CURRENT`, the manifest and the files beside the shards, checked as read.
 //! - [`verify`]: every file checked against the manifest in full.
+//! - [`lock`]: one writer at a time per bank directory; [`prune`]: old versions removed.
 
 pub mod generate;
 pub mod info;
 pub mod layout;
+pub mod lock;
 pub mod neighbours;
 pub mod population;
+pub mod prune;
 pub mod reader;
 pub mod schema;
 pub mod verify;
@@ -87,6 +90,14 @@ pub enum BankError {
     /// The simulator could not be built.
     #[error(transparent)]
     Sim(#[from] crate::model::SimError),
+    /// Another writer holds the bank directory.
+    #[error("{dir} is being written by {holder} right now: wait for it to finish (the lock goes when that process ends, however it ends)")]
+    Locked {
+        /// The bank directory.
+        dir: PathBuf,
+        /// Who holds it, in words.
+        holder: String,
+    },
     /// Invalid arguments.
     #[error("{0}")]
     Invalid(String),

@@ -118,6 +118,15 @@ pub(super) enum BankCommand {
         /// Bank directory.
         dir: PathBuf,
     },
+    /// Remove old complete versions of a bank, keeping the one CURRENT names and the newest
+    /// others up to `--keep` in all (incomplete versions are listed, not removed).
+    Prune {
+        /// Bank directory.
+        dir: PathBuf,
+        /// Complete versions to keep, CURRENT's included (1 to 1000).
+        #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u64).range(1..=1000))]
+        keep: u64,
+    },
     /// Re-simulate K instances spread through the bank and report any that no longer match
     /// (code or calibration drifted since the bank was built). Fails on drift.
     Audit {

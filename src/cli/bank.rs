@@ -146,6 +146,42 @@ pub(super) fn verify(dir: &Path) -> Result<()> {
     )
 }
 
+/// `bank prune`: removes old versions ([`bank::prune::prune`]) and says what it did and left.
+pub(super) fn prune(dir: &Path, keep: usize) -> Result<()> {
+    let p = bank::prune::prune(dir, keep)
+        .with_context(|| format!("cannot prune bank {}", dir.display()))?;
+    let name = |p: &Path| {
+        p.file_name()
+            .map(|n| n.to_string_lossy().to_string())
+            .unwrap_or_default()
+    };
+    match &p.current {
+        Some(c) => println!("kept {} (CURRENT)", name(c)),
+        None => println!("no CURRENT in {}: no version is in use", dir.display()),
+    }
+    for k in &p.kept {
+        println!("kept {}", name(k));
+    }
+    let mut freed = 0;
+    for (r, bytes) in &p.removed {
+        println!("removed {} ({:.1} MB)", name(r), *bytes as f64 / 1e6);
+        freed += bytes;
+    }
+    for i in &p.incomplete {
+        println!(
+            "left {} (incomplete: `bank generate` with its arguments resumes it; remove it by hand if it is abandoned)",
+            name(i)
+        );
+    }
+    println!(
+        "bank {}: {} removed, {:.1} MB freed",
+        dir.display(),
+        p.removed.len(),
+        freed as f64 / 1e6
+    );
+    Ok(())
+}
+
 /// `bank audit`: re-simulates `sample` instances ([`BankAudit`]), prints each verdict and
 /// fails on drift.
 pub(super) fn audit(dir: &Path, sample: usize, calibration: Option<&Path>) -> Result<()> {

@@ -49,6 +49,7 @@ pub fn main() -> ExitCode {
             BankCommand::Merge(a) => bank::generate(&a, false),
             BankCommand::Info { dir } => bank::info(&dir),
             BankCommand::Verify { dir } => bank::verify(&dir),
+            BankCommand::Prune { dir, keep } => bank::prune(&dir, keep as usize),
             BankCommand::Audit {
                 dir,
                 sample,

@@ -132,3 +132,49 @@ pub fn write_manifest(version: &Path, manifest: &wheelflat::bank::Manifest) {
         .unwrap();
     }
 }
+
+/// Whether this run is under CI, where the Python checks must run: `CI` set (to anything but
+/// empty, `0` or `false`, as CI services set it) or `WHEELFLAT_PYTHON` set (by `.ci/run`).
+pub fn under_ci() -> bool {
+    let ci = std::env::var("CI").is_ok_and(|v| !matches!(v.trim(), "" | "0" | "false"));
+    ci || std::env::var_os("WHEELFLAT_PYTHON").is_some()
+}
+
+/// The interpreter in `WHEELFLAT_PYTHON`, else `python3`, and why it cannot `import {modules}`
+/// (`None` when it can).
+pub fn python_with(modules: &str) -> (String, Option<String>) {
+    let python = std::env::var("WHEELFLAT_PYTHON").unwrap_or_else(|_| "python3".into());
+    let import = std::process::Command::new(&python)
+        .args(["-c", &format!("import {modules}")])
+        .output();
+    let missing = match &import {
+        Ok(out) if out.status.success() => None,
+        // The last line of the traceback: the error itself.
+        Ok(out) => Some(
+            String::from_utf8_lossy(&out.stderr)
+                .trim()
+                .lines()
+                .last()
+                .unwrap_or("no error message")
+                .to_string(),
+        ),
+        Err(e) => Some(format!("cannot run it: {e}")),
+    };
+    (python, missing)
+}
+
+/// A synthetic measurement of the narrow population: a seeded flat inside its ranges;
+/// `with_trigger: false` leaves the alignment to cross-correlation.
+pub fn narrow_measurement(cal: &CheckedCalibration, seed: u64, with_trigger: bool) -> String {
+    let k = seed as f64;
+    let flat = wheelflat::model::Flat::from_mm(
+        45.0 + (k * 7.3) % 30.0,
+        0.35 + (k * 0.037) % 0.2,
+        0.03,
+        12.32 + (k * 0.013) % 0.16,
+    )
+    .unwrap();
+    wheelflat::identify::synth::synthesize(cal, &flat, seed, with_trigger)
+        .unwrap()
+        .csv
+}

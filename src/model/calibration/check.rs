@@ -25,7 +25,7 @@ impl Calibration {
         non_negative("track.ballast_damping_ns_per_m", t.ballast_damping_ns_per_m)?;
         // Physical ranges and resource bounds, checked before anything is allocated.
         within("track.bays", t.bays as f64, 2.0, MAX_BAYS as f64)?;
-        within("track.sleeper_spacing_m", t.sleeper_spacing_m, 0.3, 1.5)?;
+        within("track.sleeper_spacing_m", t.sleeper_spacing_m, 0.05, 5.0)?;
 
         let v = &self.vehicle;
         positive("vehicle.bogie_mass_kg", v.bogie_mass_kg)?;
