@@ -111,6 +111,15 @@ fn calibration_values_outside_their_range_or_resource_bound_are_refused_by_name(
             &["integration.elements_per_bay", "rail elements", "20000"],
         ),
         (
+            "units slip",
+            Box::new(|c| c.track.youngs_modulus_pa = 210.0),
+            &[
+                "track.youngs_modulus_pa",
+                "210",
+                "[10000000000, 1000000000000]",
+            ],
+        ),
+        (
             "monte carlo",
             Box::new(|c| c.identification.monte_carlo_samples = 1_000_000_000),
             &["identification.monte_carlo_samples", "1000000000"],

@@ -74,10 +74,28 @@ fn walk(dir: &Path) -> Vec<PathBuf> {
 
 #[test]
 fn every_corruption_is_reported_by_verify_and_never_changes_an_answer() {
+    campaign(&options(210, 70), 300, 2026);
+}
+
+/// A compressed bank has no layout, so no per-chunk checksums: it is hashed whole at open.
+#[test]
+fn a_compressed_bank_too() {
+    let zstd = wheelflat::bank::GenerateOptions {
+        format: wheelflat::bank::StorageFormat {
+            codec: wheelflat::bank::Codec::Zstd,
+            ..wheelflat::bank::StorageFormat::default()
+        },
+        ..options(210, 70)
+    };
+    campaign(&zstd, 100, 7);
+}
+
+/// `cases` seeded corruptions of a bank built with `opts`.
+fn campaign(opts: &wheelflat::bank::GenerateOptions, cases: usize, seed: u64) {
     let cal = narrow_calibration();
     let dir = tempfile::tempdir().unwrap();
     let pristine = dir.path().join("pristine");
-    bank::generate(&cal, &pristine, &options(210, 70), &Quiet).unwrap();
+    bank::generate(&cal, &pristine, opts, &Quiet).unwrap();
     let flat = Flat::from_mm(60.0, 0.45, 0.05, 12.4).unwrap();
     let syn = synthesize(&cal, &flat, 3, true).unwrap();
     let rate = Bank::open(&pristine).unwrap().metadata().sensors[0].sample_rate_hz;
@@ -94,9 +112,9 @@ fn every_corruption_is_reported_by_verify_and_never_changes_an_answer() {
         .map(|p| p.strip_prefix(&pristine).unwrap().to_path_buf())
         .filter(|p| p != Path::new(wheelflat::bank::lock::LOCK_FILE))
         .collect();
-    let mut state = 2026u64;
+    let mut state = seed;
     let (mut refused, mut same, mut kinds) = (0, 0, std::collections::BTreeMap::new());
-    for case in 0..300 {
+    for case in 0..cases {
         let victim = files[(next(&mut state) % files.len() as u64) as usize].clone();
         let work = dir.path().join(format!("case-{case}"));
         copy_bank(&pristine, &work, &victim);
@@ -161,6 +179,9 @@ fn every_corruption_is_reported_by_verify_and_never_changes_an_answer() {
         }
         std::fs::remove_dir_all(&work).unwrap();
     }
-    println!("300 corruptions: {refused} refused, {same} gave the intact answer; {kinds:?}");
-    assert_eq!(refused + same, 300);
+    println!(
+        "{cases} corruptions ({}): {refused} refused, {same} gave the intact answer; {kinds:?}",
+        opts.format.name()
+    );
+    assert_eq!(refused + same, cases);
 }

@@ -6,48 +6,82 @@ impl Calibration {
     /// Checks every value once and returns the validated form.
     pub fn check(self) -> Result<CheckedCalibration, CalibrationError> {
         let t = &self.track;
-        positive("track.bays", t.bays as f64)?;
-        positive("track.sleeper_spacing_m", t.sleeper_spacing_m)?;
-        positive("track.youngs_modulus_pa", t.youngs_modulus_pa)?;
-        positive("track.shear_modulus_pa", t.shear_modulus_pa)?;
-        positive("track.rail_area_m2", t.rail_area_m2)?;
-        positive("track.rail_second_moment_m4", t.rail_second_moment_m4)?;
+        // Physical ranges: wide (an order of magnitude or more around real track), so that
+        // any real track fits and a slip of units or digits does not.
+        within("track.youngs_modulus_pa", t.youngs_modulus_pa, 1e10, 1e12)?;
+        // Up to effectively rigid in shear: the Euler–Bernoulli limit of the physics checks.
+        within("track.shear_modulus_pa", t.shear_modulus_pa, 1e9, 1e18)?;
+        within("track.rail_area_m2", t.rail_area_m2, 1e-4, 1e-1)?;
+        within(
+            "track.rail_second_moment_m4",
+            t.rail_second_moment_m4,
+            1e-7,
+            1e-3,
+        )?;
         positive("track.shear_coefficient", t.shear_coefficient)?;
         at_most("track.shear_coefficient", t.shear_coefficient, 1.0)?;
-        positive("track.rail_density_kg_per_m3", t.rail_density_kg_per_m3)?;
-        positive("track.pad_stiffness_n_per_m", t.pad_stiffness_n_per_m)?;
-        non_negative("track.pad_damping_ns_per_m", t.pad_damping_ns_per_m)?;
-        positive("track.sleeper_mass_kg", t.sleeper_mass_kg)?;
-        positive(
+        within(
+            "track.rail_density_kg_per_m3",
+            t.rail_density_kg_per_m3,
+            1e3,
+            2e4,
+        )?;
+        within(
+            "track.pad_stiffness_n_per_m",
+            t.pad_stiffness_n_per_m,
+            1e5,
+            1e11,
+        )?;
+        within(
+            "track.pad_damping_ns_per_m",
+            t.pad_damping_ns_per_m,
+            0.0,
+            1e8,
+        )?;
+        within("track.sleeper_mass_kg", t.sleeper_mass_kg, 1.0, 2000.0)?;
+        within(
             "track.ballast_stiffness_n_per_m",
             t.ballast_stiffness_n_per_m,
+            1e5,
+            1e11,
         )?;
-        non_negative("track.ballast_damping_ns_per_m", t.ballast_damping_ns_per_m)?;
+        within(
+            "track.ballast_damping_ns_per_m",
+            t.ballast_damping_ns_per_m,
+            0.0,
+            1e8,
+        )?;
         // Physical ranges and resource bounds, checked before anything is allocated.
         within("track.bays", t.bays as f64, 2.0, MAX_BAYS as f64)?;
         within("track.sleeper_spacing_m", t.sleeper_spacing_m, 0.05, 5.0)?;
 
         let v = &self.vehicle;
-        positive("vehicle.bogie_mass_kg", v.bogie_mass_kg)?;
-        positive(
+        within("vehicle.bogie_mass_kg", v.bogie_mass_kg, 10.0, 1e5)?;
+        within(
             "vehicle.bogie_pitch_inertia_kg_m2",
             v.bogie_pitch_inertia_kg_m2,
+            1.0,
+            1e6,
         )?;
-        positive("vehicle.wheel_mass_kg", v.wheel_mass_kg)?;
-        positive(
+        within("vehicle.wheel_mass_kg", v.wheel_mass_kg, 10.0, 1e4)?;
+        within(
             "vehicle.primary_stiffness_n_per_m",
             v.primary_stiffness_n_per_m,
+            1e4,
+            1e10,
         )?;
-        non_negative(
+        within(
             "vehicle.primary_damping_ns_per_m",
             v.primary_damping_ns_per_m,
+            0.0,
+            1e8,
         )?;
-        positive("vehicle.half_wheelbase_m", v.half_wheelbase_m)?;
-        non_negative("vehicle.car_body_mass_kg", v.car_body_mass_kg)?;
-        positive("vehicle.wheel_radius_m", v.wheel_radius_m)?;
-        positive("vehicle.gravity_m_per_s2", v.gravity_m_per_s2)?;
+        within("vehicle.half_wheelbase_m", v.half_wheelbase_m, 0.3, 5.0)?;
+        within("vehicle.car_body_mass_kg", v.car_body_mass_kg, 0.0, 1e6)?;
+        within("vehicle.wheel_radius_m", v.wheel_radius_m, 0.1, 1.5)?;
+        within("vehicle.gravity_m_per_s2", v.gravity_m_per_s2, 1.0, 30.0)?;
         if let Some(ch) = self.contact.hertz_constant_n_per_m1_5 {
-            positive("contact.hertz_constant_n_per_m1_5", ch)?;
+            within("contact.hertz_constant_n_per_m1_5", ch, 1e8, 1e13)?;
         }
 
         positive("run.speed_km_per_h", self.run.speed_km_per_h)?;

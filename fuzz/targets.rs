@@ -4,9 +4,12 @@
 //! random bytes and random mutations (flipped bits, cut, inserted, repeated and swapped spans)
 //! of a valid input, and must return a result or an error: never panic, never run long.
 //!
-//! CI runs `WHEELFLAT_FUZZ_CASES` cases per target (default 2,000); a long run is
+//! The seeds are the files of `fuzz/corpus/<target>/` (add one to teach a target a new shape
+//! of input) and, for the binary files, inputs built here. CI runs `WHEELFLAT_FUZZ_CASES`
+//! cases per target (default 2,000: it is part of `cargo test`); a long run is
 //! `WHEELFLAT_FUZZ_CASES=1000000 cargo test --release --test fuzz` (times in
-//! docs/performance.md). A failure prints the shrunk input that caused it.
+//! docs/performance.md). A failure prints the shrunk input that caused it. (proptest rather
+//! than `cargo fuzz`: CI has the stable toolchain only.)
 
 use proptest::prelude::*;
 use std::path::Path;
@@ -90,26 +93,28 @@ fn apply(seed: &[u8], edits: &[Edit]) -> Vec<u8> {
     v
 }
 
-/// Random bytes, or a mutated valid input.
-fn input(seed: Vec<u8>) -> impl Strategy<Value = Vec<u8>> {
+/// Random bytes, or a mutation of one of the seeds.
+fn input(seeds: Vec<Vec<u8>>) -> impl Strategy<Value = Vec<u8>> {
+    let n = seeds.len();
     prop_oneof![
         1 => proptest::collection::vec(any::<u8>(), 0..2048),
-        4 => proptest::collection::vec(edit(), 1..6).prop_map(move |e| apply(&seed, &e)),
+        4 => (0..n, proptest::collection::vec(edit(), 1..6))
+            .prop_map(move |(i, e)| apply(&seeds[i], &e)),
     ]
 }
 
-fn measurement_seed() -> Vec<u8> {
-    let mut s =
-        String::from("# laser_trigger_s = 0.25\n# speed_km_per_h = 50\ntime_s,rps1_kn,rps2_kn\n");
-    for k in 0..120 {
-        let t = k as f64 / 2500.0;
-        s.push_str(&format!(
-            "{t:.6},{:.3},{:.3}\n",
-            40.0 + (k as f64).sin(),
-            12.5
-        ));
-    }
-    s.into_bytes()
+/// The files of `fuzz/corpus/<target>/`.
+fn corpus(target: &str) -> Vec<Vec<u8>> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fuzz/corpus")
+        .join(target);
+    let mut seeds: Vec<Vec<u8>> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| std::fs::read(e.unwrap().path()).unwrap())
+        .collect();
+    seeds.sort();
+    assert!(!seeds.is_empty(), "{} holds no seed", dir.display());
+    seeds
 }
 
 fn layout_seed() -> Vec<u8> {
@@ -134,13 +139,13 @@ proptest! {
     #![proptest_config(config())]
 
     #[test]
-    fn measurement_csv(bytes in input(measurement_seed())) {
+    fn measurement_csv(bytes in input(corpus("measurement_csv"))) {
         let text = String::from_utf8_lossy(&bytes);
         let _ = Measurement::from_csv(Path::new("m.csv"), &text, 2500.0);
     }
 
     #[test]
-    fn calibration_toml(bytes in input(Calibration::default().to_toml_string().into_bytes())) {
+    fn calibration_toml(bytes in input(corpus("calibration_toml"))) {
         let text = String::from_utf8_lossy(&bytes);
         if let Ok(c) = Calibration::from_toml_str(&text) {
             let _ = c.check();
@@ -148,26 +153,26 @@ proptest! {
     }
 
     #[test]
-    fn trigger_file(bytes in input(b"time_s\n0.10\n0.22\n1.30\n1.42\n".to_vec())) {
+    fn trigger_file(bytes in input(corpus("trigger_file"))) {
         let text = String::from_utf8_lossy(&bytes);
         let _ = wheelflat::train::read_triggers(Path::new("t.csv"), &text);
     }
 
     #[test]
-    fn column_layout(bytes in input(layout_seed())) {
+    fn column_layout(bytes in input(vec![layout_seed()])) {
         let _ = Layout::decode(Path::new("layout.bin"), &bytes, "v-0123456789abcdef");
     }
 
     #[test]
-    fn neighbour_graph(bytes in input(wheelflat::bank::neighbours::encode(
+    fn neighbour_graph(bytes in input(vec![wheelflat::bank::neighbours::encode(
         "v-0123456789abcdef",
         &(0..10 * wheelflat::bank::neighbours::NEIGHBOURS as u32).map(|v| v % 10).collect::<Vec<_>>(),
-    ))) {
+    )])) {
         let _ = wheelflat::bank::neighbours::decode(Path::new("n.bin"), &bytes, "v-0123456789abcdef", 10);
     }
 
     #[test]
-    fn current_pointer(bytes in input(wheelflat::bank::version::current_text("v-0123456789abcdef", b"{}").into_bytes())) {
+    fn current_pointer(bytes in input(corpus("current_pointer"))) {
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(dir.path().join("CURRENT"), &bytes).unwrap();
         if let Ok(Some(c)) = wheelflat::bank::version::read_current(dir.path()) {
