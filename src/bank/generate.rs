@@ -17,7 +17,7 @@
 //! storage format, generator and model revision), so a changed calibration builds a new version
 //! beside the old one, and a rerun of the same arguments finds its own unfinished version.
 
-use super::layout::{Derived, Layout, LAYOUT_FILE};
+use super::layout::{Derived, Layout, EARLIER_MAGIC, LAYOUT_FILE};
 use super::neighbours::{neighbour_graph, NEIGHBOURS_FILE};
 use super::population::Population;
 use super::schema::{
@@ -130,6 +130,16 @@ fn population_graph(cal: &CheckedCalibration, opts: &GenerateOptions) -> Vec<u32
     neighbour_graph(&p, &cal.population)
 }
 
+/// Writes a file beside the shards atomically; its manifest entry.
+fn write_aux(version: &Path, name: &str, bytes: &[u8]) -> Result<ManifestAux, BankError> {
+    write_file_atomically(&version.join(name), bytes)?;
+    Ok(ManifestAux {
+        name: name.into(),
+        bytes: bytes.len() as u64,
+        sha256: sha256_hex(bytes),
+    })
+}
+
 /// Writes the version's `neighbours.bin` atomically; its manifest entry.
 fn write_neighbours(
     version: &Path,
@@ -138,12 +148,7 @@ fn write_neighbours(
     opts: &GenerateOptions,
 ) -> Result<ManifestAux, BankError> {
     let bytes = super::neighbours::encode(id, &population_graph(cal, opts));
-    write_file_atomically(&version.join(NEIGHBOURS_FILE), &bytes)?;
-    Ok(ManifestAux {
-        name: NEIGHBOURS_FILE.into(),
-        bytes: bytes.len() as u64,
-        sha256: sha256_hex(&bytes),
-    })
+    write_aux(version, NEIGHBOURS_FILE, &bytes)
 }
 
 /// The version's `layout.bin` ([`super::layout`]) from its shard files (`files`, in manifest
@@ -188,13 +193,7 @@ fn write_layout(
         widths: widths.unwrap_or_default(),
         shards,
     };
-    let bytes = layout.encode();
-    write_file_atomically(&version.join(LAYOUT_FILE), &bytes)?;
-    Ok(Some(ManifestAux {
-        name: LAYOUT_FILE.into(),
-        bytes: bytes.len() as u64,
-        sha256: sha256_hex(&bytes),
-    }))
+    write_aux(version, LAYOUT_FILE, &layout.encode()).map(Some)
 }
 
 /// A complete version written before the graph or the layout was stored gets them now: the
@@ -215,7 +214,7 @@ fn add_missing_aux(
     // A layout of an earlier format (without checksums) is replaced; any other layout stays
     // as it is (a damaged one is for `bank verify` to report, not for this to paper over).
     let earlier_format = manifest.layout.as_ref().is_some_and(|aux| {
-        std::fs::read(version.join(&aux.name)).is_ok_and(|b| b.starts_with(b"WFLAYOU1"))
+        std::fs::read(version.join(&aux.name)).is_ok_and(|b| b.starts_with(EARLIER_MAGIC))
     });
     if manifest.layout.is_none() || earlier_format {
         manifest.layout = write_layout(version, &manifest.bank_id, &manifest.files)?;

@@ -41,6 +41,9 @@ pub const LAYOUT_FILE: &str = "layout.bin";
 
 const MAGIC: &[u8; 8] = b"WFLAYOU2";
 
+/// The magic of the first layout format (without checksums), which `bank generate` replaces.
+pub const EARLIER_MAGIC: &[u8; 8] = b"WFLAYOU1";
+
 /// Where one shard's column values lie.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ShardLayout {
@@ -254,7 +257,7 @@ impl Layout {
             Ok(s)
         };
         let magic = take(8)?;
-        if magic == b"WFLAYOU1" {
+        if magic == EARLIER_MAGIC {
             return Err(bad("a layout of an earlier wheelflat, without checksums; `wheelflat bank generate` with the bank's arguments writes the current one".into()));
         }
         if magic != MAGIC {

@@ -198,10 +198,7 @@ pub fn decode(
     if bytes.len() != expected {
         return Err(bad(format!("{} bytes, expected {expected}", bytes.len())));
     }
-    let graph: Vec<u32> = bytes[start..]
-        .chunks_exact(4)
-        .map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes")))
-        .collect();
+    let graph: Vec<u32> = super::layout::u32_values(&bytes[start..]).collect();
     if let Some(v) = graph.iter().find(|&&v| v as usize >= instances) {
         return Err(bad(format!(
             "neighbour index {v} outside the bank's {instances} instances"

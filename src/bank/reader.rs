@@ -13,7 +13,9 @@ use super::schema::{
     map, open_shard, open_sibling_shard, parquet_err, parse_bank_metadata, BankMetadata, Manifest,
     ManifestFile, FORMAT_VERSION, MANIFEST, PARAMETER_COLUMNS,
 };
-use super::version::{check_instance_order, open_manifest, read_layout, read_neighbours};
+use super::version::{
+    check_against_manifest, check_instance_order, open_manifest, read_layout, read_neighbours,
+};
 pub use super::version::{read_manifest, resolve_version};
 use super::BankError;
 use arrow_array::{Array, Float32Array, Float64Array, UInt32Array};
@@ -171,22 +173,10 @@ impl Bank {
                 // file is checked against the manifest's SHA-256 before its footer is parsed
                 // (a damaged footer can ask for any allocation). Compressed banks, and plain
                 // banks until `bank generate` adds their layout, pay this at every open.
-                let check_whole = |path: &Path, f: &ManifestFile| -> Result<(), BankError> {
-                    let bytes = map(path)?;
-                    check_size(path, &bytes, f)?;
-                    let sum = super::schema::sha256_hex(&bytes);
-                    if sum != f.sha256 {
-                        return Err(BankError::Corrupt {
-                            path: path.to_path_buf(),
-                            message: format!("sha256 {sum}, the manifest says {}", f.sha256),
-                        });
-                    }
-                    Ok(())
-                };
-                manifest
-                    .files
-                    .par_iter()
-                    .try_for_each(|f| check_whole(&version.join(&f.name), f))?;
+                manifest.files.par_iter().try_for_each(|f| {
+                    let path = version.join(&f.name);
+                    check_against_manifest(&path, &map(&path)?, f.bytes, &f.sha256)
+                })?;
                 let path = version.join(&first.name);
                 let (bytes, meta, bank_meta) = open_shard(&path)?;
                 check_size(&path, &bytes, first)?;
@@ -299,7 +289,7 @@ impl Bank {
 
     /// Reads f32 sample columns (schema indices) for every instance: one vector per requested
     /// column, in the order asked, each in instance order. Allocates the result; see
-    /// [`Bank::read_columns_into`] for the hot path.
+    /// [`Bank::read_columns_flat`] for the hot path.
     pub fn read_columns(&self, indices: &[usize]) -> Result<Vec<Vec<f32>>, BankError> {
         let n = self.instances();
         let mut flat = vec![0.0f32; indices.len() * n];

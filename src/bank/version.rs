@@ -214,20 +214,32 @@ fn read_aux(version: &Path, aux: &ManifestAux) -> Result<(PathBuf, Vec<u8>), Ban
         path: path.clone(),
         source,
     })?;
-    if bytes.len() as u64 != aux.bytes {
-        return Err(BankError::Corrupt {
-            path,
-            message: format!("{} bytes, the manifest says {}", bytes.len(), aux.bytes),
-        });
-    }
-    let sum = sha256_hex(&bytes);
-    if sum != aux.sha256 {
-        return Err(BankError::Corrupt {
-            path,
-            message: format!("sha256 {sum}, the manifest says {}", aux.sha256),
-        });
-    }
+    check_against_manifest(&path, &bytes, aux.bytes, &aux.sha256)?;
     Ok((path, bytes))
+}
+
+/// A file's bytes against the size and SHA-256 the manifest lists for it.
+pub(crate) fn check_against_manifest(
+    path: &Path,
+    bytes: &[u8],
+    size: u64,
+    sha256: &str,
+) -> Result<(), BankError> {
+    let corrupt = |message: String| BankError::Corrupt {
+        path: path.to_path_buf(),
+        message,
+    };
+    if bytes.len() as u64 != size {
+        return Err(corrupt(format!(
+            "{} bytes, the manifest says {size}",
+            bytes.len()
+        )));
+    }
+    let sum = sha256_hex(bytes);
+    if sum != sha256 {
+        return Err(corrupt(format!("sha256 {sum}, the manifest says {sha256}")));
+    }
+    Ok(())
 }
 
 /// Reads a version directory's manifest (unchecked against `CURRENT`: for writers and for

@@ -56,8 +56,7 @@ impl Tails {
     /// The tails of `u` long enough for any probability `≥ p_floor` (`u` is reordered).
     fn new(u: &mut [f64], p_floor: f64) -> Tails {
         let n = u.len();
-        let k = ((p_floor * n as f64).ceil() as usize).clamp(1, n);
-        let m = n - k + 1;
+        let m = n - window(n, p_floor) + 1;
         let (low, high) = if 2 * m >= n {
             u.sort_by(f64::total_cmp);
             (u[..m].to_vec(), u[n - m..].to_vec())
@@ -77,35 +76,42 @@ impl Tails {
     /// more than the tails hold.
     fn shortest_interval(&self, p: f64) -> Option<(f64, f64)> {
         let (n, m) = (self.n, self.low.len());
-        let k = ((p * n as f64).ceil() as usize).clamp(1, n);
+        let k = window(n, p);
         if n - k + 1 > m {
             return None;
         }
         // Sorted position j of the top tail is high[j − (n − m)].
-        let hi_at = |j: usize| self.high[j - (n - m)];
-        let mut best = (self.low[0], hi_at(k - 1));
-        for i in 1..=n - k {
-            let (lo, hi) = (self.low[i], hi_at(i + k - 1));
-            if hi - lo < best.1 - best.0 {
-                best = (lo, hi);
-            }
-        }
-        Some(best)
+        Some(narrowest(n, k, |i| self.low[i], |j| self.high[j - (n - m)]))
     }
+}
+
+/// Samples a window must hold to hold a fraction `p` of `n`.
+fn window(n: usize, p: f64) -> usize {
+    ((p * n as f64).ceil() as usize).clamp(1, n)
+}
+
+/// The narrowest window of `k` of `n` sorted samples, `lo(i)` and `hi(j)` being the values of
+/// sorted samples i and j where a window can start and end; the first of equally narrow ones.
+fn narrowest(
+    n: usize,
+    k: usize,
+    lo: impl Fn(usize) -> f64,
+    hi: impl Fn(usize) -> f64,
+) -> (f64, f64) {
+    let mut best = (lo(0), hi(k - 1));
+    for i in 1..=n - k {
+        let (l, h) = (lo(i), hi(i + k - 1));
+        if h - l < best.1 - best.0 {
+            best = (l, h);
+        }
+    }
+    best
 }
 
 /// Shortest interval `[lo, hi]` holding a fraction `p` of sorted samples.
 pub fn shortest_interval(sorted: &[f64], p: f64) -> (f64, f64) {
     let n = sorted.len();
-    let k = ((p * n as f64).ceil() as usize).clamp(1, n);
-    let mut best = (sorted[0], sorted[k - 1]);
-    for i in 1..=n - k {
-        let (lo, hi) = (sorted[i], sorted[i + k - 1]);
-        if hi - lo < best.1 - best.0 {
-            best = (lo, hi);
-        }
-    }
-    best
+    narrowest(n, window(n, p), |i| sorted[i], |j| sorted[j])
 }
 
 impl CombinedUncertainty {
