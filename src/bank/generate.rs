@@ -26,9 +26,10 @@ use super::schema::{
     FORMAT_VERSION, MODEL_REVISION,
 };
 pub use super::schema::{shard_file_name, CURRENT, MANIFEST};
-use super::writer::{write_shard, InstanceRow, StorageFormat};
+use super::simulate::simulate_rows;
+use super::writer::{write_shard, StorageFormat};
 use super::BankError;
-use crate::model::{CheckedCalibration, Flat, Record, Simulator};
+use crate::model::{CheckedCalibration, Record, Simulator};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -395,53 +396,7 @@ pub fn generate(
             .as_ref()
             .expect("a simulator exists when files are missing");
         let info = shard_info(f);
-        let rows: Result<Vec<InstanceRow>, BankError> = (info.first_instance
-            ..info.first_instance + info.rows)
-            .into_par_iter()
-            .map_init(
-                || sim.workspace(),
-                |ws, i| {
-                    let s = population.instance(i);
-                    let wheel = s.wheel.unwrap_or(cal.vehicle.flat_wheel);
-                    let flat =
-                        Flat::from_mm(s.length_mm, s.depth_mm, s.curvature_mm, s.impact_position_m)
-                            .map_err(|e| BankError::Instance {
-                                instance: i,
-                                message: e.to_string(),
-                            })?
-                            .on_wheel(wheel);
-                    let resp = sim
-                        .run_with(Some(&flat), Record::default(), ws)
-                        .map_err(|e| BankError::Instance {
-                            instance: i,
-                            message: e.to_string(),
-                        })?;
-                    let mut forces_kn = Vec::with_capacity(axes.iter().map(|a| a.samples).sum());
-                    for (si, a) in axes.iter().enumerate() {
-                        forces_kn.extend(
-                            resp.window(si, a.first_sample, a.samples)
-                                .iter()
-                                .map(|v| (v / 1e3) as f32),
-                        );
-                    }
-                    let l0_mm = flat.fresh_length_m(cal.vehicle.wheel_radius_m) * 1e3;
-                    observer.instance_done();
-                    Ok(InstanceRow {
-                        instance: i as u32,
-                        parameters: [
-                            s.length_mm,
-                            s.depth_mm,
-                            s.curvature_mm,
-                            s.impact_position_m,
-                            l0_mm,
-                            wheel.index() as f64,
-                        ],
-                        forces_kn,
-                    })
-                },
-            )
-            .collect();
-        let rows = rows?;
+        let rows = simulate_rows(sim, cal, &population, axes, &info, observer)?;
         let name = shard_file_name(f, count);
         let path = version.join(&name);
         let tmp = crate::atomic::temporary_sibling(&path);

@@ -23,6 +23,7 @@ pub mod population;
 pub mod prune;
 pub mod reader;
 pub mod schema;
+pub mod simulate;
 pub mod verify;
 pub mod version;
 pub mod writer;

@@ -9,7 +9,7 @@
 //! rotation (a seeded shift modulo 1) to the last three coordinates; seed 0 is the plain set.
 
 use crate::model::calibration::PopulationParams;
-use crate::model::WheelPosition;
+use crate::model::{Flat, FlatError, WheelPosition};
 
 /// The flat parameters of one model instance, in the units people read (mm, m).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -25,6 +25,20 @@ pub struct FlatSample {
     /// The wheel carrying the flat, when the population spreads it over wheels (else the
     /// calibration's `vehicle.flat_wheel`).
     pub wheel: Option<WheelPosition>,
+}
+
+impl FlatSample {
+    /// The flat of this instance on its wheel (`default_wheel` when the population does not
+    /// choose one).
+    pub fn flat(&self, default_wheel: WheelPosition) -> Result<Flat, FlatError> {
+        let f = Flat::from_mm(
+            self.length_mm,
+            self.depth_mm,
+            self.curvature_mm,
+            self.impact_position_m,
+        )?;
+        Ok(f.on_wheel(self.wheel.unwrap_or(default_wheel)))
+    }
 }
 
 /// A Hammersley population of `n` instances.

@@ -25,8 +25,10 @@ pub fn shard_file_name(index: usize, count: usize) -> String {
 /// Version of the on-disk format (schema, metadata and manifest).
 pub const FORMAT_VERSION: u32 = 2;
 /// Revision of the physics: bump when a code change alters simulated values, so that
-/// existing banks are rebuilt and audits report the drift.
-pub const MODEL_REVISION: u32 = 1;
+/// existing banks are rebuilt and audits report the drift. Revision 2: the lockstep stepper
+/// (fused multiply–adds, the final accelerations by a second substitution; values within one
+/// f32 step of revision 1).
+pub const MODEL_REVISION: u32 = 2;
 /// The one key/value metadata key of a shard file; its value is [`BankMetadata`] as JSON.
 pub const METADATA_KEY: &str = "wheelflat.bank";
 /// Parameter columns, in order, before the sample columns (all f64; `flat_wheel` is 0 for

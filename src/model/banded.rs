@@ -248,48 +248,30 @@ impl BandedLdl {
     pub fn n(&self) -> usize {
         self.n
     }
-}
 
-/// A banded matrix stored by full rows for fast products: `rows[i*(2hb+1) + hb + d] = A[i][i+d]`,
-/// zero outside the matrix, applied to a vector padded with `hb` zeros at both ends.
-#[derive(Debug, Clone)]
-pub struct BandRows {
-    n: usize,
-    hb: usize,
-    rows: Vec<f64>,
-}
-
-impl BandRows {
-    /// Full-row copy of a symmetric band matrix.
-    pub fn from_sym(a: &BandedSym) -> BandRows {
-        let (n, hb) = (a.n, a.hb);
-        let w = 2 * hb + 1;
-        let mut rows = vec![0.0; n * w];
-        for i in 0..n {
-            for m in 0..w {
-                let j = i as isize + m as isize - hb as isize;
-                if j >= 0 && (j as usize) < n {
-                    rows[i * w + m] = a.get(i, j as usize);
-                }
-            }
-        }
-        BandRows { n, hb, rows }
-    }
-
-    /// Padding needed on each side of the input vector.
-    pub fn padding(&self) -> usize {
+    /// Half-bandwidth.
+    pub fn half_bandwidth(&self) -> usize {
         self.hb
     }
 
-    /// `y = A·x` where `x_padded` holds `x` at offset `hb` with `hb` zeros on each side.
-    #[inline]
-    pub fn mul_padded(&self, x_padded: &[f64], y: &mut [f64]) {
-        let w = 2 * self.hb + 1;
-        assert_eq!(x_padded.len(), self.n + 2 * self.hb);
-        for (i, (yi, row)) in y.iter_mut().zip(self.rows.chunks_exact(w)).enumerate() {
-            let xs = &x_padded[i..i + w];
-            *yi = row.iter().zip(xs).map(|(a, b)| a * b).sum();
-        }
+    /// Row `i` of `L` by distance: `[0, L[i][i−1], …, L[i][i−hb]]` (forward substitution).
+    #[inline(always)]
+    pub fn lower_row(&self, i: usize) -> &[f64] {
+        let w = self.hb + 1;
+        &self.lower[i * w..(i + 1) * w]
+    }
+
+    /// Column `i` of `L` by distance: `[0, L[i+1][i], …, L[i+hb][i]]` (backward substitution).
+    #[inline(always)]
+    pub fn upper_col(&self, i: usize) -> &[f64] {
+        let w = self.hb + 1;
+        &self.upper[i * w..(i + 1) * w]
+    }
+
+    /// `1/D[i]`.
+    #[inline(always)]
+    pub fn inv_pivot(&self, i: usize) -> f64 {
+        self.inv_d[i]
     }
 }
 
@@ -339,22 +321,6 @@ mod tests {
             for (xi, di) in x.iter().zip(dense.iter()) {
                 assert!((xi - di).abs() < 1e-13, "hb {hb}: {xi} vs {di}");
             }
-        }
-    }
-
-    #[test]
-    fn band_rows_product_matches_symmetric_product() {
-        let a = spd_band(29, 4);
-        let x: Vec<f64> = (0..29).map(|i| (i as f64).sqrt() - 2.0).collect();
-        let mut y = vec![0.0; 29];
-        a.mul_vec(&x, &mut y);
-        let rows = BandRows::from_sym(&a);
-        let mut padded = vec![0.0; 29 + 8];
-        padded[4..33].copy_from_slice(&x);
-        let mut z = vec![0.0; 29];
-        rows.mul_padded(&padded, &mut z);
-        for (p, q) in y.iter().zip(&z) {
-            assert!((p - q).abs() < 1e-12);
         }
     }
 

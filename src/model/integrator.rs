@@ -20,16 +20,17 @@
 //! The stepper fills caller-provided buffers and allocates nothing per step; parallelism
 //! over instances lives one level up.
 
-use super::banded::{BandError, BandRows, BandedLdl};
+use super::banded::{BandError, BandedLdl};
 use super::calibration::CheckedCalibration;
-use super::contact::{hertz_compression, solve_contact_pair};
+use super::contact::hertz_compression;
 use super::effect;
 use super::flat::Flat;
+use super::lanes::{Coupling, LaneInputs, LaneState, LaneWork};
 pub use super::response::{Record, Response};
 pub use super::schedule::Level;
 use super::schedule::{dip_zones, strike_zones, Schedule};
 use super::track::{Support, TrackModel};
-use super::vehicle::{mul4, wheel, VehicleModel, BOUNCE};
+use super::vehicle::{mul4, wheel, VehicleModel};
 use thiserror::Error;
 
 /// Errors of the simulator.
@@ -59,12 +60,13 @@ pub enum SimError {
 
 /// Factored matrices for one time-step size.
 #[derive(Debug, Clone)]
-struct StepLevel {
-    dt: f64,
-    ldl: BandedLdl,
-    /// Dense inverse of the track's effective matrix (symmetric, row `i` at `i*n`).
-    a_inv: Vec<f64>,
-    veh_inv: [[f64; 4]; 4],
+pub(super) struct StepLevel {
+    pub(super) dt: f64,
+    pub(super) ldl: BandedLdl,
+    /// Dense inverse of the track's effective matrix (symmetric, row `i` at `i*n`), for the
+    /// contact compliances.
+    pub(super) a_inv: Vec<f64>,
+    pub(super) veh_inv: [[f64; 4]; 4],
 }
 
 /// Full dynamic state of track and vehicle at one instant.
@@ -88,57 +90,49 @@ pub struct State {
     pub contact_n: [f64; 2],
 }
 
-/// Scratch buffers for [`Simulator::step`]; make one per thread and reuse it.
-#[derive(Debug, Clone)]
-pub struct Workspace {
-    /// Track displacement predictor ũ, padded for the band product.
-    ut_padded: Vec<f64>,
-    vt: Vec<f64>,
-    r: Vec<f64>,
-}
+/// Scratch buffers for [`Simulator::step`] and [`Simulator::run_with`] (one lane); make one
+/// per thread and reuse it.
+pub type Workspace = LaneWork<1>;
 
 /// A ready-to-run simulator for one calibration: matrices assembled and factored once,
 /// shared (read-only) by every instance simulated with it.
 #[derive(Debug, Clone)]
 pub struct Simulator {
-    cal: CheckedCalibration,
-    track: TrackModel,
-    vehicle: VehicleModel,
-    coarse: StepLevel,
-    fine: StepLevel,
-    c_entries: Vec<(usize, usize, f64)>,
-    k_rows: BandRows,
-    sensor_dofs: Vec<(usize, usize)>,
+    pub(super) cal: CheckedCalibration,
+    pub(super) track: TrackModel,
+    pub(super) vehicle: VehicleModel,
+    pub(super) coarse: StepLevel,
+    pub(super) fine: StepLevel,
+    /// `K` and `C` as sparse rows for the step's right-hand side.
+    pub(super) coupling: Coupling,
+    pub(super) sensor_dofs: Vec<(usize, usize)>,
     /// Gain of each sensor's reading (1 but for a `sensor_gain` effect).
-    sensor_gain: Vec<f64>,
-    c_h: f64,
+    pub(super) sensor_gain: Vec<f64>,
+    pub(super) c_h: f64,
     speed: f64,
     wheel_start: [f64; 2],
-    wheel_radius: f64,
-    first_sample: usize,
-    end_sample: usize,
+    pub(super) wheel_radius: f64,
+    pub(super) first_sample: usize,
+    pub(super) end_sample: usize,
     /// Output delay τ (s): the series read `F(t − τ)` (time-offset and speed-deviation
     /// effects; 0 otherwise).
-    output_delay_s: f64,
+    pub(super) output_delay_s: f64,
 }
 
 impl Simulator {
     /// Assembles and factors the model of a calibration.
     pub fn new(cal: &CheckedCalibration) -> Result<Simulator, SimError> {
         let track = TrackModel::new(cal, cal.integration.elements_per_bay, Support::Elastic);
+        // The stepper's sweeps are written for the band of rail nodes with their sleepers.
+        if track.k.half_bandwidth() != 4 {
+            return Err(SimError::Setup(format!(
+                "track band of half-width {} (the stepper needs 4)",
+                track.k.half_bandwidth()
+            )));
+        }
         let vehicle = VehicleModel::new(cal);
         let coarse = Self::level(&track, &vehicle, cal.dt_coarse_s())?;
         let fine = Self::level(&track, &vehicle, cal.dt_fine_s())?;
-        let n = track.dofs();
-        let mut c_entries = Vec::new();
-        for i in 0..n {
-            for j in 0..n {
-                let v = track.c.get(i, j);
-                if v != 0.0 {
-                    c_entries.push((i, j, v));
-                }
-            }
-        }
         let sensor_dofs = cal
             .sensors
             .pad
@@ -175,12 +169,11 @@ impl Simulator {
             first_sample,
             end_sample: cal.end_sample(),
             cal: cal.clone(),
-            k_rows: BandRows::from_sym(&track.k),
+            coupling: Coupling::new(&track),
             track,
             vehicle,
             coarse,
             fine,
-            c_entries,
             sensor_dofs,
             sensor_gain,
         })
@@ -228,13 +221,12 @@ impl Simulator {
 
     /// A workspace sized for this model.
     pub fn workspace(&self) -> Workspace {
-        let n = self.track.dofs();
-        let pad = self.k_rows.padding();
-        Workspace {
-            ut_padded: vec![0.0; n + 2 * pad],
-            vt: vec![0.0; n],
-            r: vec![0.0; n],
-        }
+        LaneWork::new(self.track.dofs())
+    }
+
+    /// A workspace for batches of `B` lanes ([`Simulator::run_batch`]).
+    pub fn lane_workspace<const B: usize>(&self) -> LaneWork<B> {
+        LaneWork::new(self.track.dofs())
     }
 
     /// Positions of the two wheels at time `t` (m).
@@ -248,7 +240,7 @@ impl Simulator {
 
     /// The car body's load beyond `M_c·g` at time `t` (car-body bounce effects; 0 otherwise).
     #[inline]
-    fn body_bounce_n(&self, t: f64) -> f64 {
+    pub(super) fn body_bounce_n(&self, t: f64) -> f64 {
         let v = &self.cal.vehicle;
         let weight_n = v.car_body_mass_kg * v.gravity_m_per_s2;
         self.cal
@@ -266,7 +258,7 @@ impl Simulator {
     /// Wheel-centre drop `z_tr` under each wheel at positions `x`: the flat, plus the rail and
     /// wheel irregularities of the calibration's effects.
     #[inline]
-    fn trajectories(&self, flat: Option<&Flat>, x: [f64; 2]) -> [f64; 2] {
+    pub(super) fn trajectories(&self, flat: Option<&Flat>, x: [f64; 2]) -> [f64; 2] {
         let mut z = [0.0; 2];
         if let Some(f) = flat {
             let w = self.flat_wheel(f);
@@ -360,7 +352,8 @@ impl Simulator {
     }
 
     /// Advances `state` by one step of the given level, with the wheels at `x` and the flat
-    /// drops `z_tr` at the end of the step.
+    /// drops `z_tr` at the end of the step: the one-lane case of the batched step
+    /// ([`super::lanes`]), the same arithmetic as every run.
     pub fn step(
         &self,
         level: Level,
@@ -369,121 +362,28 @@ impl Simulator {
         x: [f64; 2],
         z_tr: [f64; 2],
     ) {
-        let lv = match level {
-            Level::Coarse => &self.coarse,
-            Level::Fine => &self.fine,
+        let mut lane = LaneState::<1> {
+            time_s: [state.time_s],
+            u: state.u.iter().map(|&u| [u]).collect(),
+            v: state.v.iter().map(|&v| [v]).collect(),
+            a: state.a.iter().map(|&a| [a]).collect(),
+            q: [state.q],
+            qd: [state.qd],
+            qdd: [state.qdd],
+            contact_n: [state.contact_n],
         };
-        let dt = lv.dt;
-        let b = 0.25 * dt * dt;
-        let g = 0.5 * dt;
-        let n = self.track.dofs();
-
-        // Track: predictors and the contact-free acceleration a*.
-        let pad = self.k_rows.padding();
-        let predictors = ws.ut_padded[pad..pad + n].iter_mut().zip(ws.vt.iter_mut());
-        for ((ut, vt), ((u, v), a)) in predictors.zip(state.u.iter().zip(&state.v).zip(&state.a)) {
-            *ut = u + dt * v + b * a;
-            *vt = v + g * a;
+        let input = LaneInputs {
+            active: [true],
+            x: [x],
+            z_tr: [z_tr],
+        };
+        self.step_lanes(level, &mut lane, ws, &input);
+        for (i, ((u, v), a)) in lane.u.iter().zip(&lane.v).zip(&lane.a).enumerate() {
+            (state.u[i], state.v[i], state.a[i]) = (u[0], v[0], a[0]);
         }
-        self.k_rows.mul_padded(&ws.ut_padded, &mut ws.r);
-        let ut = &ws.ut_padded[pad..pad + n];
-        for &(i, j, c) in &self.c_entries {
-            ws.r[i] += c * ws.vt[j];
-        }
-        for r in ws.r.iter_mut() {
-            *r = -*r;
-        }
-        // Voided sleepers: their unilateral ballast at the predicted state (explicit in this
-        // one term; the rest of the step stays implicit).
-        for &(sd, gap, kb, cb) in &self.track.voided {
-            ws.r[sd] -= TrackModel::voided_ballast_force(kb, cb, gap, ut[sd], ws.vt[sd]);
-        }
-        lv.ldl.solve_in_place(&mut ws.r); // ws.r = a*
-
-        // Vehicle: predictors and contact-free acceleration.
-        let ut_v: [f64; 4] =
-            std::array::from_fn(|i| state.q[i] + dt * state.qd[i] + b * state.qdd[i]);
-        let vt_v: [f64; 4] = std::array::from_fn(|i| state.qd[i] + g * state.qdd[i]);
-        let ku = mul4(&self.vehicle.k, &ut_v);
-        let cv = mul4(&self.vehicle.c, &vt_v);
-        let mut load = self.vehicle.load;
-        load[BOUNCE] += self.body_bounce_n(state.time_s + dt);
-        let rv: [f64; 4] = std::array::from_fn(|i| load[i] - ku[i] - cv[i]);
-        let av_free = mul4(&lv.veh_inv, &rv);
-
-        // Contact: free compression and the 2×2 compliance over the step.
-        let loc = [self.track.locate(x[0]), self.track.locate(x[1])];
-        let mut delta_free = [0.0; 2];
-        let mut comp = [[0.0; 2]; 2];
-        for i in 0..2 {
-            let (idx, sh) = &loc[i];
-            let mut w_free = 0.0;
-            for a in 0..4 {
-                if idx[a] != usize::MAX {
-                    w_free += sh[a] * (ut[idx[a]] + b * ws.r[idx[a]]);
-                }
-            }
-            let z_free = ut_v[wheel(i)] + b * av_free[wheel(i)];
-            delta_free[i] = z_free - w_free - z_tr[i];
-            for j in 0..2 {
-                let (jdx, shj) = &loc[j];
-                let mut h = 0.0;
-                for a in 0..4 {
-                    if idx[a] == usize::MAX {
-                        continue;
-                    }
-                    let row = &lv.a_inv[idx[a] * n..(idx[a] + 1) * n];
-                    for c in 0..4 {
-                        if jdx[c] != usize::MAX {
-                            h += sh[a] * row[jdx[c]] * shj[c];
-                        }
-                    }
-                }
-                comp[i][j] = b * (h + lv.veh_inv[wheel(i)][wheel(j)]);
-            }
-            comp[i][i] += self.track.interior_compliance_at(x[i]);
-        }
-        let f = solve_contact_pair(self.c_h, delta_free, comp);
-
-        // Final accelerations: a = a* + A⁻¹·Σ N_iᵀ F_i, vehicle a = a_v* − B⁻¹·Σ e_i F_i.
-        for i in 0..2 {
-            if f[i] == 0.0 {
-                continue;
-            }
-            let (idx, sh) = &loc[i];
-            for a in 0..4 {
-                if idx[a] == usize::MAX {
-                    continue;
-                }
-                let s = sh[a] * f[i];
-                let row = &lv.a_inv[idx[a] * n..(idx[a] + 1) * n];
-                for (r, col) in ws.r.iter_mut().zip(row) {
-                    *r += s * col;
-                }
-            }
-        }
-        let mut av = av_free;
-        for (r, avr) in av.iter_mut().enumerate() {
-            *avr -= lv.veh_inv[r][wheel(0)] * f[0] + lv.veh_inv[r][wheel(1)] * f[1];
-        }
-
-        let finals = state
-            .a
-            .iter_mut()
-            .zip(state.u.iter_mut())
-            .zip(state.v.iter_mut());
-        for (((a, u), v), ((r, ut), vt)) in finals.zip(ws.r.iter().zip(ut).zip(&ws.vt)) {
-            *a = *r;
-            *u = ut + b * r;
-            *v = vt + g * r;
-        }
-        for i in 0..4 {
-            state.qdd[i] = av[i];
-            state.q[i] = ut_v[i] + b * av[i];
-            state.qd[i] = vt_v[i] + g * av[i];
-        }
-        state.contact_n = f;
-        state.time_s += dt;
+        (state.q, state.qd, state.qdd) = (lane.q[0], lane.qd[0], lane.qdd[0]);
+        state.contact_n = lane.contact_n[0];
+        state.time_s = lane.time_s[0];
     }
 
     /// Total mechanical energy (J) of a state with the wheels at `x`: kinetic + strain of the
@@ -560,109 +460,15 @@ impl Simulator {
         self.run_with(flat, record, &mut ws)
     }
 
-    /// [`Simulator::run`] with a caller-provided workspace.
+    /// [`Simulator::run`] with a caller-provided workspace: a batch of one
+    /// ([`Simulator::run_batch`]).
     pub fn run_with(
         &self,
         flat: Option<&Flat>,
         record: Record,
         ws: &mut Workspace,
     ) -> Result<Response, SimError> {
-        if let Some(f) = flat {
-            let circumference = std::f64::consts::TAU * self.wheel_radius;
-            if f.length_m() >= circumference {
-                return Err(SimError::FlatTooLong {
-                    length_mm: f.length_m() * 1e3,
-                    circumference_mm: circumference * 1e3,
-                });
-            }
-        }
-        let nc = self.cal.integration.coarse_steps_per_sample;
-        let nf = self.cal.integration.fine_steps_per_coarse;
-        let dt_c = self.coarse.dt;
-        let rate = self.cal.output.sample_rate_hz;
-        // With an output delay, record a margin on both sides and resample at the end.
-        let margin = if self.output_delay_s.abs() > 0.0 {
-            (self.output_delay_s.abs() * rate).ceil() as usize + 1
-        } else {
-            0
-        };
-        let (rec_first, rec_end) = (
-            self.first_sample.saturating_sub(margin),
-            self.end_sample + margin,
-        );
-        let samples = rec_end - rec_first;
-        let t_end = rec_end as f64 / rate;
-        let schedule = self.schedule(flat, t_end);
-
-        let mut resp = Response {
-            sample_rate_hz: rate,
-            first_sample: rec_first,
-            pad_force_n: vec![Vec::with_capacity(samples); self.sensor_dofs.len()],
-            contact_force_n: record
-                .contact
-                .then(|| [Vec::with_capacity(samples), Vec::with_capacity(samples)]),
-            peak_contact_force_n: [0.0; 2],
-            contact_loss_s: [0.0; 2],
-            strike_times_s: schedule.strike_times_s.clone(),
-            steps: [0, 0],
-        };
-        let mut state = self.initial_state(flat)?;
-        let observe = |state: &State, k: usize, resp: &mut Response| {
-            if k < rec_first || k >= rec_end {
-                return;
-            }
-            for ((out, &dofs), gain) in resp
-                .pad_force_n
-                .iter_mut()
-                .zip(&self.sensor_dofs)
-                .zip(&self.sensor_gain)
-            {
-                out.push(gain * self.track.pad_force(dofs, &state.u, &state.v));
-            }
-            if let Some(c) = resp.contact_force_n.as_mut() {
-                c[0].push(state.contact_n[0]);
-                c[1].push(state.contact_n[1]);
-            }
-        };
-        observe(&state, 0, &mut resp);
-        let track_peaks = |state: &State, dt: f64, resp: &mut Response| {
-            for w in 0..2 {
-                resp.peak_contact_force_n[w] = resp.peak_contact_force_n[w].max(state.contact_n[w]);
-                if state.contact_n[w] == 0.0 {
-                    resp.contact_loss_s[w] += dt;
-                }
-            }
-        };
-        let total_coarse = rec_end * nc;
-        let dt_f = self.fine.dt;
-        for j in 0..total_coarse {
-            let (t0, t1) = (j as f64 * dt_c, (j + 1) as f64 * dt_c);
-            if schedule.level(t0, t1) == Level::Fine {
-                for m in 0..nf {
-                    let t = ((j * nf + m + 1) as f64) * dt_f;
-                    let x = self.wheel_positions(t);
-                    self.step(Level::Fine, &mut state, ws, x, self.trajectories(flat, x));
-                    state.time_s = t;
-                    track_peaks(&state, dt_f, &mut resp);
-                }
-                resp.steps[1] += nf;
-            } else {
-                let x = self.wheel_positions(t1);
-                self.step(Level::Coarse, &mut state, ws, x, self.trajectories(flat, x));
-                state.time_s = t1;
-                track_peaks(&state, dt_c, &mut resp);
-                resp.steps[0] += 1;
-            }
-            if (j + 1) % nc == 0 {
-                if !state.q[wheel(0)].is_finite() || !state.u.iter().all(|u| u.is_finite()) {
-                    return Err(SimError::StepDiverged { time_s: t1 });
-                }
-                observe(&state, (j + 1) / nc, &mut resp);
-            }
-        }
-        if margin > 0 {
-            resp.delay_onto(self.first_sample..self.end_sample, self.output_delay_s);
-        }
-        Ok(resp)
+        let (mut results, _) = self.run_batch::<1>(&[flat], record, ws);
+        results.pop().expect("one result per flat")
     }
 }

@@ -423,7 +423,13 @@ impl TrackModel {
     #[inline]
     pub fn pad_force(&self, dofs: (usize, usize), u: &[f64], v: &[f64]) -> f64 {
         let (w, s) = dofs;
-        self.pad_stiffness_at[w] * (u[w] - u[s]) + self.pad_damping * (v[w] - v[s])
+        self.pad_force_from(w, u[w] - u[s], v[w] - v[s])
+    }
+
+    /// Rail-pad force over rail DOF `w` from the pad's compression `u_w − z_s` and its rate.
+    #[inline]
+    pub fn pad_force_from(&self, w: usize, compression_m: f64, rate_m_per_s: f64) -> f64 {
+        self.pad_stiffness_at[w] * compression_m + self.pad_damping * rate_m_per_s
     }
 
     /// Load carried by the clamped ends `[left, right]` (N, in the same sense as a pad force:
