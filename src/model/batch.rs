@@ -320,3 +320,34 @@ impl Simulator {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Calibration;
+
+    /// The baseline build (software fused multiply–adds, for CPUs without AVX2+FMA) gives the
+    /// bits of the dispatched build: banks do not depend on the CPU. Slow (software FMA), so
+    /// two short-window flats, one of them losing contact.
+    #[test]
+    fn the_baseline_build_gives_the_dispatched_bits() {
+        let cal = Calibration::narrow_profile().check().unwrap();
+        let sim = Simulator::new(&cal).unwrap();
+        let flats = [
+            Flat::from_mm(60.0, 0.5, 0.1, 12.4).unwrap(),
+            Flat::from_mm(20.0, 1.0, 0.0, 12.2).unwrap(),
+        ];
+        let members: Vec<Option<&Flat>> = flats.iter().map(Some).collect();
+        let record = Record { contact: true };
+        let (dispatched, _) = sim.run_batch::<2>(&members, record, &mut sim.lane_workspace());
+        let (baseline, _) = sim.run_batch_impl::<2>(&members, record, &mut sim.lane_workspace());
+        for (d, b) in dispatched.iter().zip(&baseline) {
+            let (d, b) = (d.as_ref().unwrap(), b.as_ref().unwrap());
+            for (x, y) in d.pad_force_n.iter().zip(&b.pad_force_n) {
+                assert!(x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits()));
+            }
+            let loss = |r: &Response| r.contact_loss_s.map(f64::to_bits);
+            assert_eq!(loss(d), loss(b));
+        }
+    }
+}
