@@ -13,7 +13,7 @@
 //! finished) are computed along but not committed.
 //!
 //! The step is Newmark average acceleration on track and vehicle with the two Hertz
-//! contacts solved implicitly at the end of the step (docs/model.md §5):
+//! contacts solved implicitly at the end of the step (docs/model.md §9):
 //!
 //! 1. predictors `ũ = u + dt·v + dt²/4·a`, `ṽ = v + dt/2·a`;
 //! 2. right-hand side `r = −K·ũ − C·ṽ` (minus the voided sleepers' unilateral ballast);
