@@ -27,7 +27,6 @@ pub fn simulate_rows(
     let flats: Vec<(usize, Flat, [f64; 6], f64)> = instances
         .map(|i| {
             let s = population.instance(i);
-            let wheel = s.wheel.unwrap_or(cal.vehicle.flat_wheel);
             let flat = s
                 .flat(cal.vehicle.flat_wheel)
                 .map_err(|e| BankError::Instance {
@@ -41,7 +40,7 @@ pub fn simulate_rows(
                 s.curvature_mm,
                 s.impact_position_m,
                 l0_mm,
-                wheel.index() as f64,
+                flat.wheel().unwrap_or(cal.vehicle.flat_wheel).index() as f64,
             ];
             let key = batch_key(sim, Some(&flat));
             Ok((i, flat, parameters, key))

@@ -184,17 +184,16 @@ impl Simulator {
                 (Level::Fine, true, _) | (_, true, false) => Level::Fine,
                 _ => Level::Coarse,
             };
+            // Lanes past `lanes.len()` (a short batch) are never set active.
+            let mut t_end = [0.0; B];
             for (l, lane) in lanes.iter().enumerate() {
                 input.active[l] = lane.result.is_none() && lane.level == level;
                 if input.active[l] {
-                    let t = self.lane_step_end(lane, level, nf, dt_c, dt_f);
-                    let x = self.wheel_positions(t);
+                    t_end[l] = self.lane_step_end(lane, level, nf, dt_c, dt_f);
+                    let x = self.wheel_positions(t_end[l]);
                     input.x[l] = x;
                     input.z_tr[l] = self.trajectories(lane.flat, x);
                 }
-            }
-            for l in lanes.len()..B {
-                input.active[l] = false;
             }
             self.step_lanes(level, &mut st, ws, &input);
             stats.rounds += 1;
@@ -204,8 +203,7 @@ impl Simulator {
                     continue;
                 }
                 stats.lane_steps += 1;
-                let t = self.lane_step_end(lane, level, nf, dt_c, dt_f);
-                st.time_s[l] = t;
+                st.time_s[l] = t_end[l];
                 let dt = match level {
                     Level::Fine => dt_f,
                     Level::Coarse => dt_c,

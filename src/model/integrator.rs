@@ -8,17 +8,20 @@
 //!
 //! `(M + dt/2·C + dt²/4·K)·a_{n+1} = f_{n+1} − C·ṽ − K·ũ`
 //!
-//! The track and the vehicle are linear, so their end-of-step state is the contact-free
-//! prediction plus the contact forces times precomputed compliances. That leaves two
-//! scalar unknowns per step (the contact forces), solved by Newton in
-//! [`solve_contact_pair`]. The effective matrices are factored once per time-step size.
+//! The track and the vehicle are linear, so the contact compression at the end of the step
+//! is the contact-free prediction minus the contact forces times precomputed compliances.
+//! That leaves two scalar unknowns per step (the contact forces), solved by Newton in
+//! [`super::contact::solve_contact_pair`]; the final accelerations then come from a second
+//! substitution with the forces added. The effective matrices are factored once per
+//! time-step size. The step itself is [`super::lanes`] (several instances at once; a run is a
+//! batch of one, [`super::batch`]).
 //!
 //! Two step sizes are used: a coarse one where the wheels roll on round tread, a fine one
 //! from shortly before each flat strike until well after the landing impact ([`super::schedule`]).
 //! The effects of the calibration enter through their terms in [`super::effect`].
 //!
-//! The stepper fills caller-provided buffers and allocates nothing per step; parallelism
-//! over instances lives one level up.
+//! A run fills caller-provided buffers and allocates nothing per step; parallelism over
+//! batches lives one level up.
 
 use super::banded::{BandError, BandedLdl};
 use super::calibration::CheckedCalibration;
@@ -221,7 +224,7 @@ impl Simulator {
 
     /// A workspace sized for this model.
     pub fn workspace(&self) -> Workspace {
-        LaneWork::new(self.track.dofs())
+        self.lane_workspace()
     }
 
     /// A workspace for batches of `B` lanes ([`Simulator::run_batch`]).
