@@ -56,6 +56,13 @@ pub fn unit_points(p: &Parameters, r: &PopulationParams) -> Vec<[f64; 4]> {
 /// the search grows shell by shell until the k-th distance is certain. Ties go to the lower
 /// index, so the graph does not depend on the thread count.
 pub fn nearest(points: &[[f64; 4]], k: usize) -> Vec<u32> {
+    nearest_weighted(points, [1.0; 4], k)
+}
+
+/// [`nearest`] in a stretched unit cube: coordinate t counts `weights[t]` times (the distance
+/// is `Σ (w_t·Δx_t)²`). The grid has as many cells along each axis as that axis' share of
+/// the box needs for cells of about equal width, so a thin box costs no more than a cube.
+pub fn nearest_weighted(points: &[[f64; 4]], weights: [f64; 4], k: usize) -> Vec<u32> {
     let n = points.len();
     if n <= k {
         // Everyone is everyone's neighbour; the missing places repeat the point itself.
@@ -69,27 +76,33 @@ pub fn nearest(points: &[[f64; 4]], k: usize) -> Vec<u32> {
             })
             .collect();
     }
-    let g = ((n as f64 / 2.0).powf(0.25).floor() as usize).max(1);
-    let cell_of = |x: f64| ((x * g as f64) as isize).clamp(0, g as isize - 1);
-    let key = |c: [isize; 4]| {
-        ((c[0] as usize * g + c[1] as usize) * g + c[2] as usize) * g + c[3] as usize
+    // About two points a cell: a cell side h with Π(w_t / h) = n / 2.
+    let volume: f64 = weights.iter().product();
+    let h = (volume / (n as f64 / 2.0)).powf(0.25);
+    let g: [usize; 4] = weights.map(|w| ((w / h).floor() as usize).clamp(1, 4096));
+    let cell_of = |x: [f64; 4]| -> [isize; 4] {
+        std::array::from_fn(|t| ((x[t] * g[t] as f64) as isize).clamp(0, g[t] as isize - 1))
     };
-    let mut buckets: Vec<Vec<u32>> = vec![Vec::new(); g.pow(4)];
+    let key = |c: [isize; 4]| {
+        ((c[0] as usize * g[1] + c[1] as usize) * g[2] + c[2] as usize) * g[3] + c[3] as usize
+    };
+    let mut buckets: Vec<Vec<u32>> = vec![Vec::new(); g.iter().product()];
     for (i, x) in points.iter().enumerate() {
-        buckets[key(x.map(cell_of))].push(i as u32);
+        buckets[key(cell_of(*x))].push(i as u32);
     }
-    let width = 1.0 / g as f64;
+    // Cell width along each axis in the stretched metric.
+    let width: [f64; 4] = std::array::from_fn(|t| weights[t] / g[t] as f64);
     (0..n)
         .into_par_iter()
         .flat_map_iter(|i| {
             let x = points[i];
-            let c = x.map(cell_of);
+            let c = cell_of(x);
             let mut best: Vec<(f64, u32)> = Vec::with_capacity(4 * k);
             let mut r = 1isize;
             loop {
                 best.clear();
-                let lo = c.map(|v| (v - r).max(0));
-                let hi = c.map(|v| (v + r).min(g as isize - 1));
+                let lo: [isize; 4] = std::array::from_fn(|t| (c[t] - r).max(0));
+                let hi: [isize; 4] = std::array::from_fn(|t| (c[t] + r).min(g[t] as isize - 1));
                 for a in lo[0]..=hi[0] {
                     for b in lo[1]..=hi[1] {
                         for cc in lo[2]..=hi[2] {
@@ -97,7 +110,9 @@ pub fn nearest(points: &[[f64; 4]], k: usize) -> Vec<u32> {
                                 for &j in &buckets[key([a, b, cc, d])] {
                                     if j as usize != i {
                                         let y = points[j as usize];
-                                        let d2: f64 = (0..4).map(|t| (x[t] - y[t]).powi(2)).sum();
+                                        let d2: f64 = (0..4)
+                                            .map(|t| (weights[t] * (x[t] - y[t])).powi(2))
+                                            .sum();
                                         best.push((d2, j));
                                     }
                                 }
@@ -106,10 +121,13 @@ pub fn nearest(points: &[[f64; 4]], k: usize) -> Vec<u32> {
                     }
                 }
                 best.sort_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)));
-                // Every point within r·width of x is in the searched block.
-                let sure = (r as f64 * width).powi(2);
-                let whole = r as usize >= g;
-                if best.len() >= k && (best[k - 1].0 <= sure || whole) {
+                // Every point within `sure` of x is in the searched block: along each axis the
+                // block reaches r cells past x's cell, unless it already spans the axis.
+                let sure = (0..4)
+                    .filter(|&t| !(lo[t] == 0 && hi[t] == g[t] as isize - 1))
+                    .map(|t| (r as f64 * width[t]).powi(2))
+                    .fold(f64::INFINITY, f64::min);
+                if best.len() >= k && best[k - 1].0 <= sure {
                     break;
                 }
                 r += 1;
@@ -123,6 +141,15 @@ pub fn nearest(points: &[[f64; 4]], k: usize) -> Vec<u32> {
 /// The neighbour graph of a bank's instances: [`NEIGHBOURS`] per instance, searched among
 /// the instances with the flat on the same wheel (the wheel is not a continuous parameter).
 pub fn neighbour_graph(p: &Parameters, ranges: &PopulationParams) -> Vec<u32> {
+    neighbour_graph_weighted(p, ranges, [1.0; 4])
+}
+
+/// [`neighbour_graph`] in the unit cube stretched by `weights` (L, d, c, X_p).
+pub fn neighbour_graph_weighted(
+    p: &Parameters,
+    ranges: &PopulationParams,
+    weights: [f64; 4],
+) -> Vec<u32> {
     let unit = unit_points(p, ranges);
     let mut neighbours = vec![0u32; unit.len() * NEIGHBOURS];
     for wheel in [0u8, 1] {
@@ -133,7 +160,7 @@ pub fn neighbour_graph(p: &Parameters, ranges: &PopulationParams) -> Vec<u32> {
             continue;
         }
         let sub: Vec<[f64; 4]> = members.iter().map(|&i| unit[i]).collect();
-        let nn = nearest(&sub, NEIGHBOURS);
+        let nn = nearest_weighted(&sub, weights, NEIGHBOURS);
         for (m, &i) in members.iter().enumerate() {
             for t in 0..NEIGHBOURS {
                 neighbours[i * NEIGHBOURS + t] = members[nn[m * NEIGHBOURS + t] as usize] as u32;
@@ -237,6 +264,33 @@ mod tests {
                 "point {i}"
             );
         }
+    }
+
+    #[test]
+    fn weighted_grid_search_finds_the_same_neighbours_as_brute_force() {
+        // A box stretched as the cells' metric stretches the unit cube (one axis 30× the
+        // others), and a uniform weighting that must give the plain search's graph.
+        let mut state = 9u64;
+        let pts: Vec<[f64; 4]> = (0..3000)
+            .map(|_| std::array::from_fn(|_| crate::bank::population::uniform(&mut state)))
+            .collect();
+        let w = [51.0, 27.0, 5.6, 800.0];
+        let scaled: Vec<[f64; 4]> = pts
+            .iter()
+            .map(|x| std::array::from_fn(|t| x[t] * w[t]))
+            .collect();
+        let nn = nearest_weighted(&pts, w, NEIGHBOURS);
+        for i in (0..pts.len()).step_by(29) {
+            assert_eq!(
+                &nn[i * NEIGHBOURS..(i + 1) * NEIGHBOURS],
+                brute(&scaled, i, NEIGHBOURS).as_slice(),
+                "point {i}"
+            );
+        }
+        assert_eq!(
+            nearest_weighted(&pts, [2.0; 4], NEIGHBOURS),
+            nearest(&pts, NEIGHBOURS)
+        );
     }
 
     #[test]

@@ -59,6 +59,10 @@ impl Cells {
     }
 
     /// Cells from a neighbour list (`NEIGHBOURS` per point) and the points' (L, d, c, X_p).
+    pub fn from_graph(neighbours: Vec<u32>, coords: Vec<[f64; 4]>) -> Cells {
+        Cells::from_neighbours(neighbours, coords)
+    }
+
     fn from_neighbours(neighbours: Vec<u32>, coords: Vec<[f64; 4]>) -> Cells {
         Cells {
             k: NEIGHBOURS,

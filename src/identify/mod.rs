@@ -127,12 +127,22 @@ impl Identifier {
     /// Opens the reusable state for a bank, with identification settings (the bank's stored
     /// calibration's, or the user's).
     pub fn new(bank: Bank, settings: IdentificationParams) -> Result<Identifier, IdentifyError> {
+        let graph = bank.neighbours().map(<[u32]>::to_vec);
+        Identifier::with_neighbours(bank, settings, graph)
+    }
+
+    /// [`Identifier::new`] with the cells' neighbour graph given (`None`: searched now).
+    pub fn with_neighbours(
+        bank: Bank,
+        settings: IdentificationParams,
+        graph: Option<Vec<u32>>,
+    ) -> Result<Identifier, IdentifyError> {
         let params = bank.read_parameters()?;
         let uncertainty = CombinedUncertainty::new(&settings);
         let cells = Cells::new(
             &params,
             &bank.metadata().calibration.population,
-            bank.neighbours(),
+            graph.as_deref(),
         );
         Ok(Identifier {
             bank,
