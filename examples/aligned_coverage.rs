@@ -45,14 +45,7 @@ fn main() {
         cells.max_shift,
         cells.max_offset()
     );
-    let (insp, urg) = (
-        cal.identification.inspect_l0_mm,
-        cal.identification.urgent_l0_mm,
-    );
-    let top = wheelflat::model::Flat::fresh_length_mm(
-        cal.population.depth_mm[1],
-        cal.vehicle.wheel_radius_m,
-    );
+    let (insp, urg, top) = coverage::severity_limits(&cal);
     let mut rows: Vec<Row> = Vec::new();
     for (case, flat) in coverage::truths(&cal, cases, seed).iter().enumerate() {
         let (m, t) = coverage::case(&meas_cal, flat, seed, case).unwrap();

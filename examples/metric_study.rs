@@ -36,14 +36,7 @@ fn main() {
     } else {
         cal.clone()
     };
-    let (insp, urg) = (
-        cal.identification.inspect_l0_mm,
-        cal.identification.urgent_l0_mm,
-    );
-    let top = wheelflat::model::Flat::fresh_length_mm(
-        cal.population.depth_mm[1],
-        cal.vehicle.wheel_radius_m,
-    );
+    let (insp, urg, top) = coverage::severity_limits(&cal);
     let mut truth = Vec::new();
     let (mut jb, mut jw): (Vec<Judged>, Vec<Judged>) = (Vec::new(), Vec::new());
     let mut je: Vec<Judged> = Vec::new();

@@ -209,6 +209,15 @@ pub fn method_line(name: &str, truth: &[(f64, usize)], answers: &[Judged], top_m
     )
 }
 
+/// The severity limits of a study and the population's top L0: (inspect, urgent, top) in mm.
+pub fn severity_limits(cal: &CheckedCalibration) -> (f64, f64, f64) {
+    (
+        cal.identification.inspect_l0_mm,
+        cal.identification.urgent_l0_mm,
+        Flat::fresh_length_mm(cal.population.depth_mm[1], cal.vehicle.wheel_radius_m),
+    )
+}
+
 /// The finer model that measurements with model-form error are simulated with: twice the
 /// elements per bay and half the time steps of `cal` (issue 11's second acceptance set).
 pub fn finer_model(cal: &CheckedCalibration) -> CheckedCalibration {
