@@ -59,17 +59,55 @@ fn bench_identify(c: &mut Criterion) {
         })
         .collect();
     let predictions = id.bank().read_columns(&cols).unwrap();
-    let points: Vec<Point> = r
+    let p = r.per_point_probability;
+    let curves: Vec<_> = r
+        .eip
+        .iter()
+        .map(|&e| id.threshold_curve(r.candidates[e].measured_kn, p))
+        .chain(
+            r.envelope
+                .iter()
+                .map(|x| id.threshold_curve(x.measured_kn, p)),
+        )
+        .collect();
+    // The envelope points' features: each window's extreme over its bank columns.
+    let features: Vec<Vec<f32>> = r
+        .envelope
+        .iter()
+        .map(|x| {
+            let axis = id
+                .bank()
+                .metadata()
+                .sensors
+                .iter()
+                .position(|a| a.name == r.series[x.series].sensor)
+                .unwrap();
+            let cols: Vec<usize> = (x.sample - x.half_width..=x.sample + x.half_width)
+                .map(|k| id.bank().sample_index(axis, k))
+                .collect();
+            let data = id.bank().read_columns(&cols).unwrap();
+            let refs: Vec<&[f32]> = data.iter().map(Vec::as_slice).collect();
+            wheelflat::identify::envelope::feature(&refs, x.kind == "max")
+        })
+        .collect();
+    let mut points: Vec<Point> = r
         .eip
         .iter()
         .zip(&predictions)
-        .map(|(&e, g)| Point {
+        .zip(&curves)
+        .map(|((&e, g), c)| Point {
             predictions: g,
             measured_kn: r.candidates[e].measured_kn,
             low_kn: r.candidates[e].threshold_low_kn,
             high_kn: r.candidates[e].threshold_high_kn,
+            curve: Some(c),
         })
         .collect();
+    points.extend(wheelflat::identify::envelope::as_points(
+        &r.envelope,
+        &features,
+        &curves[r.eip.len()..],
+    ));
     c.bench_function(
         &format!("falsification_pass_{}_points_{n}_instances", points.len()),
         |b| b.iter(|| falsify(black_box(&points), id.resolution())),

@@ -122,6 +122,8 @@ fn main() {
                     measured_kn: y,
                     low_kn: lo,
                     high_kn: hi,
+                    // As measured on 2026-11-23: thresholds at the measured force only.
+                    curve: None,
                 })
                 .collect();
             let surv = falsify(

@@ -2,7 +2,8 @@
 //! bogie 2 leading, bogie 7 trailing and bogie 11 leading, identified against a train-profile
 //! bank: `cargo run --release --example train_study -- BANK_DIR [SEEDS] [FIRST_SEED]`.
 //! Prints per seed the wheels reported with a flat, and the totals: flats found on the right
-//! wheel, truths inside the reported L0 range, false flats on good wheels, time per train.
+//! wheel, truths inside the reported L0 range, false flats on good wheels, time per train;
+//! `ENV_K=0`: without the envelope points.
 use std::path::Path;
 use wheelflat::bank::Bank;
 use wheelflat::identify::{Identifier, Measurement};
@@ -26,6 +27,9 @@ fn main() {
     let mut settings = cal.identification.clone();
     if let Ok(n) = std::env::var("MC_SAMPLES") {
         settings.monte_carlo_samples = n.parse().expect("MC_SAMPLES is a number");
+    }
+    if let Ok(n) = std::env::var("ENV_K") {
+        settings.envelope_windows_per_sensor = n.parse().expect("ENV_K is a number");
     }
     let id = Identifier::new(bank, settings).expect("identifier");
     let flats = train::default_flats();

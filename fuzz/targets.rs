@@ -166,6 +166,7 @@ proptest! {
     #[test]
     fn neighbour_graph(bytes in input(vec![wheelflat::bank::neighbours::encode(
         "v-0123456789abcdef",
+        [51.3, 27.0, 6.2, 800.0],
         &(0..10 * wheelflat::bank::neighbours::NEIGHBOURS as u32).map(|v| v % 10).collect::<Vec<_>>(),
     )])) {
         let _ = wheelflat::bank::neighbours::decode(Path::new("n.bin"), &bytes, "v-0123456789abcdef", 10);

@@ -232,7 +232,7 @@ pub fn compare(stored: &StoredInstance, resim: &[Vec<f32>], bank: &Bank) -> Resi
 /// One comparison point, seen from one instance.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PointCheck {
-    /// Order among the EIP (1 = first chosen).
+    /// Order among the EIP (1 = first chosen), the envelope points after them.
     pub order: usize,
     /// Sensor.
     pub sensor: String,
@@ -253,6 +253,10 @@ pub struct PointCheck {
     /// How far the residual lies outside the widened thresholds (kN; ≤ 0: inside, by that
     /// margin).
     pub outside_by_kn: f64,
+    /// For an envelope point, its window ("max ±2": the maximum over ±2 samples); the values
+    /// above are then the window's extremes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub envelope: Option<String>,
 }
 
 /// An instance against a measurement.
@@ -272,48 +276,40 @@ pub struct MeasuredCheck {
     pub per_point_probability: f64,
 }
 
-/// Checks stored instance `stored` against the identification `id` made by `identifier`.
-pub fn check_against(
-    identifier: &Identifier,
-    id: &Identification,
-    stored: &StoredInstance,
-) -> Result<MeasuredCheck, AuditError> {
-    let bank = identifier.bank();
-    let axes = &bank.metadata().sensors;
-    let mut points = Vec::with_capacity(id.eip.len());
-    // The neighbours' predictions at the EIP give the instance's own widening.
-    let cols: Vec<(usize, usize)> = id
-        .eip
-        .iter()
-        .map(|&e| {
-            let c = &id.candidates[e];
-            let name = &id.series[c.series].sensor;
-            let axis = axes
-                .iter()
-                .position(|a| &a.name == name)
-                .expect("identified sensors are the bank's");
-            (axis, c.sample)
-        })
-        .collect();
-    let columns = bank.read_columns(
-        &cols
-            .iter()
-            .map(|&(a, k)| bank.sample_index(a, k))
-            .collect::<Vec<_>>(),
-    )?;
-    let i = stored.instance as usize;
-    for (order, (&e, (&(axis, k), col))) in id.eip.iter().zip(cols.iter().zip(&columns)).enumerate()
-    {
-        let c = &id.candidates[e];
-        let predicted = stored.forces_kn[axis][k] as f64;
-        let residual = predicted - c.measured_kn;
+/// One comparison point as falsification judges an instance there.
+struct Judged<'a> {
+    predicted: f64,
+    measured: f64,
+    /// The measured force's thresholds.
+    thresholds: (f64, f64),
+    /// Every instance's prediction (for the widening).
+    all: &'a [f32],
+}
+
+impl Judged<'_> {
+    #[allow(clippy::too_many_arguments)]
+    fn check(
+        &self,
+        identifier: &Identifier,
+        i: usize,
+        p: f64,
+        order: usize,
+        sensor: &str,
+        sample: usize,
+        time_s: f64,
+    ) -> PointCheck {
+        let residual = self.predicted - self.measured;
         let widening = identifier
             .resolution()
-            .map_or(0.0, |r| r.kappa * r.cells.spread(col, i));
-        let (lo, hi) = (
-            c.threshold_low_kn - widening,
-            c.threshold_high_kn + widening,
-        );
+            .map_or(0.0, |r| r.kappa * r.cells.spread(self.all, i));
+        // The band identification applies to this prediction (its own force's thresholds
+        // where it exceeds the measurement and the measured force's band fails).
+        let (t_lo, t_hi) = if residual >= self.thresholds.0 && residual <= self.thresholds.1 {
+            self.thresholds
+        } else {
+            identifier.band(self.measured, self.predicted, p)
+        };
+        let (lo, hi) = (t_lo - widening, t_hi + widening);
         let outside = if residual > hi {
             residual - hi
         } else if residual < lo {
@@ -321,18 +317,102 @@ pub fn check_against(
         } else {
             -(residual - lo).min(hi - residual)
         };
-        points.push(PointCheck {
-            order: order + 1,
-            sensor: axes[axis].name.clone(),
-            sample: k,
-            time_s: c.time_s,
-            measured_kn: c.measured_kn,
-            predicted_kn: predicted,
+        PointCheck {
+            order,
+            sensor: sensor.to_string(),
+            sample,
+            time_s,
+            measured_kn: self.measured,
+            predicted_kn: self.predicted,
             residual_kn: residual,
-            threshold_kn: [c.threshold_low_kn, c.threshold_high_kn],
+            threshold_kn: [t_lo, t_hi],
             widening_kn: widening,
             outside_by_kn: outside,
-        });
+            envelope: None,
+        }
+    }
+}
+
+/// Checks stored instance `stored` against the identification `id` made by `identifier`: at
+/// every EIP, then at every envelope point (`identify::envelope`), as falsification judges it.
+pub fn check_against(
+    identifier: &Identifier,
+    id: &Identification,
+    stored: &StoredInstance,
+) -> Result<MeasuredCheck, AuditError> {
+    let bank = identifier.bank();
+    let axes = &bank.metadata().sensors;
+    let axis_of = |series: usize| {
+        let name = &id.series[series].sensor;
+        axes.iter()
+            .position(|a| &a.name == name)
+            .expect("identified sensors are the bank's")
+    };
+    let i = stored.instance as usize;
+    let p = id.per_point_probability;
+    let mut points = Vec::with_capacity(id.eip.len() + id.envelope.len());
+    // The neighbours' predictions at the EIP give the instance's own widening.
+    let cols: Vec<(usize, usize)> = id
+        .eip
+        .iter()
+        .map(|&e| (axis_of(id.candidates[e].series), id.candidates[e].sample))
+        .collect();
+    let columns = bank.read_columns(
+        &cols
+            .iter()
+            .map(|&(a, k)| bank.sample_index(a, k))
+            .collect::<Vec<_>>(),
+    )?;
+    for (order, (&e, (&(axis, k), col))) in id.eip.iter().zip(cols.iter().zip(&columns)).enumerate()
+    {
+        let c = &id.candidates[e];
+        let judged = Judged {
+            predicted: stored.forces_kn[axis][k] as f64,
+            measured: c.measured_kn,
+            thresholds: (c.threshold_low_kn, c.threshold_high_kn),
+            all: col,
+        };
+        points.push(judged.check(identifier, i, p, order + 1, &axes[axis].name, k, c.time_s));
+    }
+    // Envelope points: the window's extreme of the stored series, and of every instance for
+    // the widening.
+    for (j, x) in id.envelope.iter().enumerate() {
+        let axis = axis_of(x.series);
+        let window = x.sample - x.half_width..=x.sample + x.half_width;
+        let data = bank.read_columns(
+            &window
+                .clone()
+                .map(|k| bank.sample_index(axis, k))
+                .collect::<Vec<_>>(),
+        )?;
+        let refs: Vec<&[f32]> = data.iter().map(Vec::as_slice).collect();
+        let max = x.kind == "max";
+        let all = crate::identify::envelope::feature(&refs, max);
+        let own = crate::identify::envelope::feature(
+            &window
+                .map(|k| std::slice::from_ref(&stored.forces_kn[axis][k]))
+                .collect::<Vec<_>>(),
+            max,
+        )[0];
+        let judged = Judged {
+            predicted: own as f64,
+            measured: x.measured_kn,
+            thresholds: (x.threshold_low_kn, x.threshold_high_kn),
+            all: &all,
+        };
+        let ser = &id.series[x.series];
+        let t = ser.t0_s + x.sample as f64 / ser.sample_rate_hz;
+        let mut check = judged.check(
+            identifier,
+            i,
+            p,
+            id.eip.len() + j + 1,
+            &axes[axis].name,
+            x.sample,
+            t,
+        );
+        check.envelope = Some(format!("{} ±{}", x.kind, x.half_width));
+        points.push(check);
     }
     let mut falsified_by: Vec<usize> = (0..points.len())
         .filter(|&p| points[p].outside_by_kn > 0.0)

@@ -128,7 +128,7 @@ fn the_verdict_of_every_instance_matches_the_candidate_model_set_and_names_its_p
         let stored = b.read_instance(i).unwrap();
         let c = audit::check_against(&identifier, &id, &stored).unwrap();
         assert_eq!(c.kept, c.in_cms, "instance {i}");
-        assert_eq!(c.points.len(), id.eip.len());
+        assert_eq!(c.points.len(), id.eip.len() + id.envelope.len());
         if c.kept {
             kept += 1;
             assert!(c.falsified_by.is_empty());

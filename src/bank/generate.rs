@@ -18,7 +18,7 @@
 //! beside the old one, and a rerun of the same arguments finds its own unfinished version.
 
 use super::layout::{Derived, Layout, EARLIER_MAGIC, LAYOUT_FILE};
-use super::neighbours::{neighbour_graph, NEIGHBOURS_FILE};
+use super::neighbours::{cell_weights, neighbour_graph, NEIGHBOURS_FILE};
 use super::population::Population;
 use super::schema::{
     bank_id, bank_metadata_text, calibration_sha256, open_shard, sensor_axes, sha256_hex,
@@ -148,7 +148,11 @@ fn write_neighbours(
     cal: &CheckedCalibration,
     opts: &GenerateOptions,
 ) -> Result<ManifestAux, BankError> {
-    let bytes = super::neighbours::encode(id, &population_graph(cal, opts));
+    let bytes = super::neighbours::encode(
+        id,
+        cell_weights(&cal.population),
+        &population_graph(cal, opts),
+    );
     write_aux(version, NEIGHBOURS_FILE, &bytes)
 }
 
@@ -197,7 +201,8 @@ fn write_layout(
     write_aux(version, LAYOUT_FILE, &layout.encode()).map(Some)
 }
 
-/// A complete version written before the graph or the layout was stored gets them now: the
+/// A complete version written before the graph or the layout was stored (or with either in an
+/// earlier format) gets them now: the
 /// files, then the manifest rewritten atomically with their entries (readers see the old or
 /// the new manifest, and either describes files that are in place). Returns whether anything
 /// was added.
@@ -208,7 +213,11 @@ fn add_missing_aux(
 ) -> Result<bool, BankError> {
     let mut manifest = super::version::read_manifest(version)?;
     let mut added = false;
-    if manifest.neighbours.is_none() {
+    // A graph of the earlier format (searched without the axis weights) is replaced too.
+    let earlier_graph = manifest.neighbours.as_ref().is_some_and(|aux| {
+        std::fs::read(version.join(&aux.name)).is_ok_and(|b| b.starts_with(b"WFNEIGH1"))
+    });
+    if manifest.neighbours.is_none() || earlier_graph {
         manifest.neighbours = Some(write_neighbours(version, &manifest.bank_id, cal, opts)?);
         added = true;
     }

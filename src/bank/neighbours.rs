@@ -1,19 +1,21 @@
 //! The bank's neighbour graph: every instance's [`NEIGHBOURS`] nearest other instances in the
-//! unit cube the population is sampled in (L, d, c/c_max, X_p each mapped to [0, 1]), among
-//! the instances with the flat on the same wheel. Identification widens each instance to its
-//! cell from these neighbours (`identify::cells`).
+//! unit cube the population is sampled in (L, d, c/c_max, X_p each mapped to [0, 1]), each axis
+//! stretched by how fast the predictions change along it ([`cell_weights`]), among the
+//! instances with the flat on the same wheel. Identification widens each instance to its cell
+//! from these neighbours (`identify::cells`).
 //!
-//! The graph depends only on the instances' parameters, so it is built once, by `bank
-//! generate` and `bank merge`, and stored beside the shards as `neighbours.bin`, listed in the
-//! manifest with its size and SHA-256. Opening a bank then costs a checked read instead of an
-//! N·log N search. Layout (little-endian):
+//! The graph depends only on the instances' parameters and the population's ranges, so it is
+//! built once, by `bank generate` and `bank merge`, and stored beside the shards as
+//! `neighbours.bin`, listed in the manifest with its size and SHA-256. Opening a bank then
+//! costs a checked read instead of an N·log N search. Layout (little-endian):
 //!
 //! ```text
-//! magic  b"WFNEIGH1"          8 bytes
-//! n      u64                  instances
-//! k      u32                  neighbours per instance
-//! id_len u32, id              the bank id (UTF-8)
-//! graph  n·k u32              instance i's neighbours at [i·k, (i+1)·k)
+//! magic   b"WFNEIGH2"         8 bytes (b"WFNEIGH1": an earlier, unstretched graph, no weights)
+//! n       u64                 instances
+//! k       u32                 neighbours per instance
+//! id_len  u32, id             the bank id (UTF-8)
+//! weights 4 · f64             the axis weights the graph was searched with (L, d, c, X_p)
+//! graph   n·k u32             instance i's neighbours at [i·k, (i+1)·k)
 //! ```
 
 use super::schema::Parameters;
@@ -28,7 +30,36 @@ pub const NEIGHBOURS: usize = 8;
 /// The graph's file name inside a version directory.
 pub const NEIGHBOURS_FILE: &str = "neighbours.bin";
 
-const MAGIC: &[u8; 8] = b"WFNEIGH1";
+const MAGIC: &[u8; 8] = b"WFNEIGH2";
+
+/// The magic of the earlier graph format, searched in the plain unit cube.
+const EARLIER_MAGIC: &[u8; 8] = b"WFNEIGH1";
+
+/// How fast the predictions at the comparison points change with each flat parameter, in
+/// threshold half-widths per millimetre (L, d, c, X_p), measured on the default calibration's
+/// 60 mm flat at 50 km/h (docs/performance.md, "What the bank can resolve": L ±5 mm → 1.3–1.4,
+/// d ±0.02 mm → 0.6, c ±0.02 mm → 0.45, X_p ±1 mm → 0.6–0.8 half-widths).
+pub const SENSITIVITY_PER_MM: [f64; 4] = [0.27, 30.0, 22.5, 0.8];
+
+/// The axis weights of the cells' metric for a population: each unit-cube axis stretched to
+/// the threshold half-widths its whole range is worth ([`SENSITIVITY_PER_MM`] × the range;
+/// c's unit axis is c/c_max, taken at the middle depth). A Hammersley set is uniform in any
+/// box, so in this metric an instance's nearest neighbours lie about equally far in every
+/// direction in terms of the predictions, instead of ~20 times farther along X_p.
+pub fn cell_weights(pop: &PopulationParams) -> [f64; 4] {
+    let span = |r: [f64; 2]| (r[1] - r[0]).max(0.0);
+    let mid_depth = 0.5 * (pop.depth_mm[0] + pop.depth_mm[1]);
+    let c_span = (pop.curvature_mm[1].min(mid_depth / 2.0) - pop.curvature_mm[0]).max(0.0);
+    let w = [
+        SENSITIVITY_PER_MM[0] * span(pop.length_mm),
+        SENSITIVITY_PER_MM[1] * span(pop.depth_mm),
+        SENSITIVITY_PER_MM[2] * c_span,
+        SENSITIVITY_PER_MM[3] * span(pop.impact_position_m) * 1e3,
+    ];
+    // An axis the population does not vary along carries no distance; keep the search's box
+    // non-degenerate.
+    w.map(|v| v.max(1e-6))
+}
 
 /// Unit-cube coordinates of every instance (the space the population was sampled in).
 pub fn unit_points(p: &Parameters, r: &PopulationParams) -> Vec<[f64; 4]> {
@@ -138,10 +169,11 @@ pub fn nearest_weighted(points: &[[f64; 4]], weights: [f64; 4], k: usize) -> Vec
         .collect()
 }
 
-/// The neighbour graph of a bank's instances: [`NEIGHBOURS`] per instance, searched among
-/// the instances with the flat on the same wheel (the wheel is not a continuous parameter).
+/// The neighbour graph of a bank's instances: [`NEIGHBOURS`] per instance in the metric of
+/// [`cell_weights`], searched among the instances with the flat on the same wheel (the wheel
+/// is not a continuous parameter).
 pub fn neighbour_graph(p: &Parameters, ranges: &PopulationParams) -> Vec<u32> {
-    neighbour_graph_weighted(p, ranges, [1.0; 4])
+    neighbour_graph_weighted(p, ranges, cell_weights(ranges))
 }
 
 /// [`neighbour_graph`] in the unit cube stretched by `weights` (L, d, c, X_p).
@@ -171,18 +203,30 @@ pub fn neighbour_graph_weighted(
 }
 
 /// The file bytes of a graph.
-pub fn encode(bank_id: &str, graph: &[u32]) -> Vec<u8> {
+pub fn encode(bank_id: &str, weights: [f64; 4], graph: &[u32]) -> Vec<u8> {
     let n = graph.len() / NEIGHBOURS;
-    let mut out = Vec::with_capacity(24 + bank_id.len() + graph.len() * 4);
+    let mut out = Vec::with_capacity(56 + bank_id.len() + graph.len() * 4);
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&(n as u64).to_le_bytes());
     out.extend_from_slice(&(NEIGHBOURS as u32).to_le_bytes());
     out.extend_from_slice(&(bank_id.len() as u32).to_le_bytes());
     out.extend_from_slice(bank_id.as_bytes());
+    for w in weights {
+        out.extend_from_slice(&w.to_le_bytes());
+    }
     for v in graph {
         out.extend_from_slice(&v.to_le_bytes());
     }
     out
+}
+
+/// A stored neighbour graph and the axis weights it was searched with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StoredGraph {
+    /// The weights ([1; 4] for a graph of the earlier format).
+    pub weights: [f64; 4],
+    /// [`NEIGHBOURS`] per instance.
+    pub graph: Vec<u32>,
 }
 
 /// The graph in a file's bytes, checked against the bank it must belong to: magic, bank id,
@@ -192,7 +236,7 @@ pub fn decode(
     bytes: &[u8],
     bank_id: &str,
     instances: usize,
-) -> Result<Vec<u32>, BankError> {
+) -> Result<StoredGraph, BankError> {
     let bad = |message: String| BankError::Corrupt {
         path: path.to_path_buf(),
         message,
@@ -202,9 +246,11 @@ pub fn decode(
             .get(at..at + len)
             .ok_or_else(|| bad(format!("{} bytes: ends inside the header", bytes.len())))
     };
-    if word(0, 8)? != MAGIC {
-        return Err(bad("not a wheelflat neighbour graph (bad magic)".into()));
-    }
+    let earlier = match word(0, 8)? {
+        m if m == MAGIC => false,
+        m if m == EARLIER_MAGIC => true,
+        _ => return Err(bad("not a wheelflat neighbour graph (bad magic)".into())),
+    };
     let n = u64::from_le_bytes(word(8, 8)?.try_into().expect("8 bytes"));
     let k = u32::from_le_bytes(word(16, 4)?.try_into().expect("4 bytes"));
     let id_len = u32::from_le_bytes(word(20, 4)?.try_into().expect("4 bytes")) as usize;
@@ -220,7 +266,19 @@ pub fn decode(
             "{n} instances × {k} neighbours; the bank has {instances} instances and identification uses {NEIGHBOURS}"
         )));
     }
-    let start = 24 + id_len;
+    let mut start = 24 + id_len;
+    let mut weights = [1.0f64; 4];
+    if !earlier {
+        for (t, w) in weights.iter_mut().enumerate() {
+            *w = f64::from_le_bytes(word(start + 8 * t, 8)?.try_into().expect("8 bytes"));
+        }
+        if weights.iter().any(|w| !(w.is_finite() && *w > 0.0)) {
+            return Err(bad(format!(
+                "axis weights {weights:?}: each must be positive"
+            )));
+        }
+        start += 32;
+    }
     let expected = start + instances * NEIGHBOURS * 4;
     if bytes.len() != expected {
         return Err(bad(format!("{} bytes, expected {expected}", bytes.len())));
@@ -231,7 +289,7 @@ pub fn decode(
             "neighbour index {v} outside the bank's {instances} instances"
         )));
     }
-    Ok(graph)
+    Ok(StoredGraph { weights, graph })
 }
 
 #[cfg(test)]
@@ -296,9 +354,17 @@ mod tests {
     #[test]
     fn a_graph_reads_back_and_foreign_or_damaged_files_are_refused() {
         let graph: Vec<u32> = (0..5 * NEIGHBOURS as u32).map(|v| v % 5).collect();
-        let bytes = encode("abc", &graph);
+        let w = [1.5, 2.0, 0.5, 30.0];
+        let bytes = encode("abc", w, &graph);
         let p = Path::new("neighbours.bin");
-        assert_eq!(decode(p, &bytes, "abc", 5).unwrap(), graph);
+        let back = decode(p, &bytes, "abc", 5).unwrap();
+        assert_eq!((back.weights, back.graph.as_slice()), (w, graph.as_slice()));
+        // The earlier format (no weights) reads back with unit weights.
+        let mut earlier = EARLIER_MAGIC.to_vec();
+        earlier.extend_from_slice(&bytes[8..27]);
+        earlier.extend_from_slice(&bytes[59..]);
+        let back = decode(p, &earlier, "abc", 5).unwrap();
+        assert_eq!((back.weights, back.graph), ([1.0; 4], graph.clone()));
         // Another bank, another size, a cut file, an index outside the bank.
         assert!(decode(p, &bytes, "abd", 5).is_err());
         assert!(decode(p, &bytes, "abc", 6).is_err());

@@ -64,7 +64,7 @@ pub struct Bank {
     metadata: BankMetadata,
     files: Vec<ShardFile>,
     /// The stored neighbour graph, checked at open (`None` for banks written without one).
-    neighbours: Option<Vec<u32>>,
+    neighbours: Option<super::neighbours::StoredGraph>,
     /// The column layout, checked at open (`None`: read through the footers).
     layout: Option<Layout>,
 }
@@ -224,7 +224,13 @@ impl Bank {
     /// The neighbour graph stored with the bank, checked against the manifest's SHA-256 and
     /// the bank id ([`super::neighbours`]); `None` for a bank written without one.
     pub fn neighbours(&self) -> Option<&[u32]> {
-        self.neighbours.as_deref()
+        self.neighbours.as_ref().map(|g| g.graph.as_slice())
+    }
+
+    /// The axis weights the stored neighbour graph was searched with
+    /// ([`super::neighbours::cell_weights`]; [1; 4] for a graph of the earlier format).
+    pub fn neighbour_weights(&self) -> Option<[f64; 4]> {
+        self.neighbours.as_ref().map(|g| g.weights)
     }
 
     /// The version directory.

@@ -162,7 +162,7 @@ pub(crate) fn read_neighbours(
     aux: &ManifestAux,
     bank_id: &str,
     instances: usize,
-) -> Result<Vec<u32>, BankError> {
+) -> Result<super::neighbours::StoredGraph, BankError> {
     let (path, bytes) = read_aux(version, aux)?;
     super::neighbours::decode(&path, &bytes, bank_id, instances)
 }

@@ -13,7 +13,11 @@
 //! what the bank can resolve, not just where its surviving samples happen to sit.
 //!
 //! Neighbours are searched in the unit cube the population is sampled in (L, d, c/c_max, X_p
-//! each mapped to [0, 1]), where Hammersley points are uniformly spread.
+//! each mapped to [0, 1]), where Hammersley points are uniformly spread, with each axis
+//! stretched by how fast the predictions change along it
+//! ([`crate::bank::neighbours::cell_weights`]): the cells are then about as wide in every
+//! direction in terms of the predictions (about 5 mm of X_p, 14 mm of L and 0.13 mm of d on
+//! the default bank), instead of 67 mm of X_p in the plain cube.
 
 use crate::bank::Parameters;
 use crate::model::calibration::PopulationParams;
@@ -58,14 +62,26 @@ impl Cells {
         Cells::from_neighbours(nearest(unit, NEIGHBOURS), coords.to_vec())
     }
 
-    /// Cells from a neighbour list (`NEIGHBOURS` per point) and the points' (L, d, c, X_p).
+    /// Cells from a neighbour list (the same number per point) and the points' (L, d, c, X_p).
     pub fn from_graph(neighbours: Vec<u32>, coords: Vec<[f64; 4]>) -> Cells {
         Cells::from_neighbours(neighbours, coords)
     }
 
     fn from_neighbours(neighbours: Vec<u32>, coords: Vec<[f64; 4]>) -> Cells {
+        // Neighbours per instance: the graph's length over the instances (NEIGHBOURS for a
+        // bank's stored graph; studies may give more).
+        let k = if coords.is_empty() {
+            NEIGHBOURS
+        } else {
+            (neighbours.len() / coords.len()).max(1)
+        };
+        assert_eq!(
+            neighbours.len(),
+            k * coords.len(),
+            "a neighbour graph holds the same number of neighbours for every instance"
+        );
         Cells {
-            k: NEIGHBOURS,
+            k,
             neighbours,
             coords,
         }

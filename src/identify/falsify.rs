@@ -4,7 +4,7 @@
 //! i; the survivors are the candidate model set (CMS).
 
 use super::cells::Cells;
-use super::uncertainty::uniform;
+use super::uncertainty::{uniform, ThresholdCurve};
 use rayon::prelude::*;
 
 /// One comparison point: the bank's predictions there, the measurement and the thresholds.
@@ -18,6 +18,9 @@ pub struct Point<'a> {
     pub low_kn: f64,
     /// Upper threshold (kN).
     pub high_kn: f64,
+    /// The thresholds at a prediction's own force, for predictions larger than the
+    /// measurement (`None`: the measured force's thresholds for every instance).
+    pub curve: Option<&'a ThresholdCurve>,
 }
 
 /// The bank's resolution as used by falsification (see [`super::cells`]): instance i passes a
@@ -35,6 +38,18 @@ pub struct Resolution<'a> {
 #[inline]
 fn passes(p: &Point, lo: f64, hi: f64, k: usize, res: Option<Resolution>) -> bool {
     let g = p.predictions[k] as f64;
+    if g >= lo && g <= hi {
+        return true;
+    }
+    // Model errors are fractions of the predicted force: a prediction larger than the
+    // measurement is judged with the thresholds at its own force (wider).
+    let (lo, hi) = match p.curve {
+        Some(c) if g.abs() > p.measured_kn.abs() => {
+            let (l, h) = c.at(g);
+            (p.measured_kn + l, p.measured_kn + h)
+        }
+        _ => (lo, hi),
+    };
     if g >= lo && g <= hi {
         return true;
     }
@@ -152,12 +167,14 @@ mod tests {
                 measured_kn: 2.5,
                 low_kn: -1.0,
                 high_kn: 1.0,
+                curve: None,
             },
             Point {
                 predictions: &b,
                 measured_kn: 20.0,
                 low_kn: -0.2,
                 high_kn: 0.6,
+                curve: None,
             },
         ];
         assert_eq!(falsify(&pts, None), vec![1, 2]);
@@ -177,6 +194,7 @@ mod tests {
             measured_kn: 5.0,
             low_kn: -1.0,
             high_kn: 1.0,
+            curve: None,
         }];
         assert!(falsify(&pts, None).is_empty(), "nothing within ±1 kN of 5");
         // With four instances everyone neighbours everyone, so every spread is 8 kN.
@@ -196,6 +214,33 @@ mod tests {
     }
 
     #[test]
+    fn a_prediction_above_the_measurement_is_judged_at_its_own_force() {
+        use crate::identify::uncertainty::CombinedUncertainty;
+        use crate::model::calibration::IdentificationParams;
+        let cu = CombinedUncertainty::new(&IdentificationParams::default());
+        let (y, p) = (10.0, 0.999);
+        let (lo, hi) = cu.thresholds(y, p);
+        let curve = cu.curve(y, p);
+        // Just above the measured force's band, but inside the band at its own force; far
+        // above both; below the band (judged at the measured force, as before).
+        let g = [
+            (y + hi + 0.3) as f32,
+            (3.0 * y) as f32,
+            (y + lo - 0.1) as f32,
+        ];
+        assert!(y + hi + 0.3 - y <= curve.at(y + hi + 0.3).1);
+        let point = |curve| Point {
+            predictions: &g,
+            measured_kn: y,
+            low_kn: lo,
+            high_kn: hi,
+            curve,
+        };
+        assert!(falsify(&[point(None)], None).is_empty());
+        assert_eq!(falsify(&[point(Some(&curve))], None), vec![0]);
+    }
+
+    #[test]
     fn random_subsets_are_reproducible() {
         let cols: Vec<Vec<f32>> = (0..10)
             .map(|i| (0..100).map(|k| ((k * (i + 3)) % 17) as f32).collect())
@@ -207,6 +252,7 @@ mod tests {
                 measured_kn: 8.0,
                 low_kn: -4.0,
                 high_kn: 4.0,
+                curve: None,
             })
             .collect();
         let a = random_subset_counts(&pts, 3, 50, 7, None);

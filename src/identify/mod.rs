@@ -10,6 +10,7 @@ pub mod buffer;
 pub mod cells;
 pub mod coverage;
 pub mod entropy;
+pub mod envelope;
 pub mod falsify;
 pub mod measurement;
 pub mod pip;
@@ -42,6 +43,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 use thiserror::Error;
 use uncertainty::CombinedUncertainty;
+pub use uncertainty::ThresholdCurve;
 
 /// Errors of identification.
 #[derive(Debug, Error)]
@@ -127,7 +129,13 @@ impl Identifier {
     /// Opens the reusable state for a bank, with identification settings (the bank's stored
     /// calibration's, or the user's).
     pub fn new(bank: Bank, settings: IdentificationParams) -> Result<Identifier, IdentifyError> {
-        let graph = bank.neighbours().map(<[u32]>::to_vec);
+        // The stored graph when it was searched in today's metric; else (a bank written
+        // before the metric was stretched) searched now, 0.3 s for 50,000 instances.
+        let weights =
+            crate::bank::neighbours::cell_weights(&bank.metadata().calibration.population);
+        let graph = (bank.neighbour_weights() == Some(weights))
+            .then(|| bank.neighbours().map(<[u32]>::to_vec))
+            .flatten();
         Identifier::with_neighbours(bank, settings, graph)
     }
 
@@ -169,6 +177,23 @@ impl Identifier {
     /// `y_kn`, holding probability `p` (the combined uncertainty of the settings).
     pub fn thresholds(&self, y_kn: f64, p: f64) -> (f64, f64) {
         self.uncertainty.thresholds(y_kn, p)
+    }
+
+    /// The thresholds `[low, high]` on `g − y` that falsification applies to a prediction
+    /// `g_kn` at a point measured at `y_kn`, with per-point probability `p`: the measured
+    /// force's, or the prediction's own where it is larger ([`ThresholdCurve`]).
+    pub fn band(&self, y_kn: f64, g_kn: f64, p: f64) -> (f64, f64) {
+        if g_kn.abs() > y_kn.abs() {
+            self.uncertainty.curve(y_kn, p).at(g_kn)
+        } else {
+            self.uncertainty.thresholds(y_kn, p)
+        }
+    }
+
+    /// The thresholds of a point measured at `y_kn` as a function of the prediction's force
+    /// ([`ThresholdCurve`]), at per-point probability `p`.
+    pub fn threshold_curve(&self, y_kn: f64, p: f64) -> ThresholdCurve {
+        self.uncertainty.curve(y_kn, p)
     }
 
     /// The bank's resolution as falsification uses it (`None` when switched off).
@@ -458,20 +483,52 @@ impl Identifier {
         lap("binning 2", &mut timings);
         let selection = greedy_joint_entropy(&binned, &all, alpha, m1);
         let m_final = selection.order.len().max(1);
-        let p_final = s.phi.powf(1.0 / m_final as f64);
         lap("greedy 2", &mut timings);
+
+        // Envelope points at the impact spikes (identify::envelope); Šídák over every point.
+        let hw = s.envelope_half_width_samples;
+        let template: Vec<&[f32]> = used
+            .iter()
+            .map(|&(_, bi)| meta.flat_free_kn[bi].as_slice())
+            .collect();
+        let centres = envelope::windows(&series, &template, s.envelope_windows_per_sensor, hw);
+        let p_final = s.phi.powf(1.0 / (m_final + 2 * centres.len()) as f64);
+        let env_cols: Vec<usize> = centres
+            .iter()
+            .flat_map(|&(si, k)| (k - hw..=k + hw).map(move |j| (si, j)))
+            .map(|(si, j)| self.bank.sample_index(used[si].1, j))
+            .collect();
+        let env_data = self.bank.read_columns(&env_cols)?;
+        let (env_reported, env_features, env_curves) =
+            envelope::points(&series, &centres, hw, &self.uncertainty, p_final, &env_data);
+        lap("envelope", &mut timings);
 
         let thresholds: Vec<(f64, f64)> = (0..measured.len())
             .map(|i| self.uncertainty.thresholds(measured[i], p_final))
+            .collect();
+        // The thresholds at a prediction's own force where it exceeds the measurement: for the
+        // EIP, and for every candidate when the baselines draw from them.
+        let curves: Vec<Option<ThresholdCurve>> = (0..measured.len())
+            .map(|i| {
+                (extras.baselines || selection.order.contains(&i))
+                    .then(|| self.uncertainty.curve(measured[i], p_final))
+            })
             .collect();
         let point = |i: usize| Point {
             predictions: predictions[i],
             measured_kn: measured[i],
             low_kn: thresholds[i].0,
             high_kn: thresholds[i].1,
+            curve: curves[i].as_ref(),
         };
         let eip_points: Vec<Point> = selection.order.iter().map(|&i| point(i)).collect();
-        let cms_idx = falsify(&eip_points, self.resolution());
+        let mut method_points = eip_points.clone();
+        method_points.extend(envelope::as_points(
+            &env_reported,
+            &env_features,
+            &env_curves,
+        ));
+        let cms_idx = falsify(&method_points, self.resolution());
         lap("falsify", &mut timings);
 
         let candidates: Vec<CandidatePoint> = cands
@@ -510,8 +567,12 @@ impl Identifier {
             })
             .collect();
         let mut falsifications = vec![Falsification {
-            method: "EIP (joint entropy)".into(),
-            points: m_final,
+            method: if env_reported.is_empty() {
+                "EIP (joint entropy)".into()
+            } else {
+                "EIP (joint entropy) + envelope".into()
+            },
+            points: method_points.len(),
             cms_count: cms.len(),
             ranges: cms_ranges.clone(),
         }];
@@ -565,10 +626,14 @@ impl Identifier {
                 .map(|&(si, k)| self.bank.sample_index(used[si].1, k))
                 .collect();
             let eq_pred = self.bank.read_columns(&eq_cols)?;
+            let eq_curves: Vec<ThresholdCurve> = eq
+                .iter()
+                .map(|&(si, k)| self.uncertainty.curve(series[si].values_kn[k], p_final))
+                .collect();
             let eq_points: Vec<Point> = eq
                 .iter()
-                .zip(&eq_pred)
-                .map(|(&(si, k), g)| {
+                .zip(eq_pred.iter().zip(&eq_curves))
+                .map(|(&(si, k), (g, curve))| {
                     let y = series[si].values_kn[k];
                     let (lo, hi) = self.uncertainty.thresholds(y, p_final);
                     Point {
@@ -576,6 +641,7 @@ impl Identifier {
                         measured_kn: y,
                         low_kn: lo,
                         high_kn: hi,
+                        curve: Some(curve),
                     }
                 })
                 .collect();
@@ -621,7 +687,7 @@ impl Identifier {
 
         let population = population_ranges(cal);
         let refuted = cms.is_empty();
-        let (summary, hint) = summarise(&cms_ranges, cms.len(), n, m_final, s);
+        let (summary, hint) = summarise(&cms_ranges, cms.len(), n, method_points.len(), s);
         Ok(Identification {
             measurement: m.path.display().to_string(),
             bank_id: meta.bank_id.clone(),
@@ -634,6 +700,7 @@ impl Identifier {
             candidates,
             eip: selection.order,
             eip_joint_entropy_bits: selection.joint_bits,
+            envelope: env_reported,
             alpha_bits: alpha,
             entropy_curves,
             phi: s.phi,

@@ -182,6 +182,10 @@ pub struct Identification {
     pub eip: Vec<usize>,
     /// Joint entropy after each EIP (bits).
     pub eip_joint_entropy_bits: Vec<f64>,
+    /// Envelope points compared after the EIP (`identify::envelope`; absent in results
+    /// written before they existed).
+    #[serde(default)]
+    pub envelope: Vec<super::envelope::EnvelopePoint>,
     /// Stop threshold α of the greedy selection (bits).
     pub alpha_bits: f64,
     /// Joint entropy curves for each sensor alone and for all together.

@@ -40,6 +40,66 @@ pub struct CombinedUncertainty {
     sorted: Vec<OnceLock<Vec<f64>>>,
     /// Shortest intervals already found: (row, probability bits) → interval.
     intervals: Mutex<HashMap<(usize, u64), (f64, f64)>>,
+    /// The smallest and largest sample of S.
+    s_range: (f64, f64),
+    /// The largest sample of −T.
+    minus_t_max: f64,
+}
+
+/// The thresholds of one point as a function of the force the relative sources scale with.
+///
+/// Model errors are fractions of the *predicted* force (paper Eq. 1: `g − ε_model` = truth),
+/// measurement errors of the measured one. Thresholds taken at the measured force `y` are too
+/// narrow for a prediction `g` larger than `y` (by up to a third where the model error is at
+/// the table's edge), so an instance whose prediction exceeds the measurement is judged with
+/// the thresholds at its own force, `thresholds(g)` — the rule the train's good-wheel check
+/// uses (the larger of the two). The curve holds the grid rows from `|y|` up to the force
+/// beyond which no prediction can pass even the hard bounds of U_c, so that falsification
+/// evaluates it without locks, with the same interpolation as
+/// [`CombinedUncertainty::thresholds`]; further out it extends the last interval by the
+/// extreme slopes of S, which encloses at least the probability asked for (each sample of
+/// `U_c` moves by `Δb·S`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ThresholdCurve {
+    from_kn: f64,
+    reach_kn: f64,
+    /// (grid force, low, high) of the rows covering [from, reach].
+    rows: Vec<(f64, f64, f64)>,
+    /// The smallest and largest sample of S.
+    slopes: (f64, f64),
+}
+
+impl ThresholdCurve {
+    /// Thresholds `[low, high]` on `g − y` for a prediction of magnitude above the measured
+    /// one; `g` carries its sign as in [`CombinedUncertainty::thresholds`].
+    pub fn at(&self, g_kn: f64) -> (f64, f64) {
+        let a = g_kn.abs().max(self.from_kn);
+        let (lo, hi) = if a > self.reach_kn {
+            let (l, h) = self.interpolate(self.reach_kn);
+            let d = a - self.reach_kn;
+            (
+                l + d * self.slopes.0.min(0.0),
+                h + d * self.slopes.1.max(0.0),
+            )
+        } else {
+            self.interpolate(a)
+        };
+        if g_kn < 0.0 {
+            (-hi, -lo)
+        } else {
+            (lo, hi)
+        }
+    }
+
+    fn interpolate(&self, a: f64) -> (f64, f64) {
+        let i = self
+            .rows
+            .partition_point(|r| r.0 <= a)
+            .clamp(1, self.rows.len() - 1);
+        let ((g0, l0, h0), (g1, l1, h1)) = (self.rows[i - 1], self.rows[i]);
+        let w = if g1 > g0 { (a - g0) / (g1 - g0) } else { 0.0 };
+        (l0 + w * (l1 - l0), h0 + w * (h1 - h0))
+    }
 }
 
 pub(crate) use crate::bank::population::uniform;
@@ -146,11 +206,16 @@ impl CombinedUncertainty {
         }
         grid_kn.push(2000.0);
         CombinedUncertainty {
-            s,
-            t,
             p_floor: params.phi.clamp(0.0, 1.0),
             tails: grid_kn.iter().map(|_| OnceLock::new()).collect(),
             sorted: grid_kn.iter().map(|_| OnceLock::new()).collect(),
+            s_range: (
+                s.iter().copied().fold(f64::INFINITY, f64::min),
+                s.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            ),
+            minus_t_max: t.iter().map(|t| -t).fold(f64::NEG_INFINITY, f64::max),
+            s,
+            t,
             grid_kn,
             intervals: Mutex::new(HashMap::new()),
         }
@@ -200,6 +265,42 @@ impl CombinedUncertainty {
         shortest_interval(&self.sorted_at(y_kn), p)
     }
 
+    /// The thresholds at a point measured at `y_kn`, as a function of the force they scale
+    /// with, for predictions larger than the measurement ([`ThresholdCurve`]).
+    pub fn curve(&self, y_kn: f64, p: f64) -> ThresholdCurve {
+        let last = *self.grid_kn.last().expect("grid is not empty");
+        let a0 = y_kn.abs().min(last);
+        // Beyond `reach` no prediction can pass even the hard bounds of U_c at its own force:
+        // g − y > g·max S + max(−T) ⇔ g > (y + max(−T)) / (1 − max S).
+        let (s_lo, s_hi) = self.s_range;
+        let reach = if s_hi < 1.0 {
+            ((a0 + self.minus_t_max) / (1.0 - s_hi)).min(last)
+        } else {
+            last
+        };
+        let first = self
+            .grid_kn
+            .partition_point(|&g| g <= a0)
+            .clamp(1, self.grid_kn.len() - 1)
+            - 1;
+        let end = self
+            .grid_kn
+            .partition_point(|&g| g < reach)
+            .clamp(first + 1, self.grid_kn.len() - 1);
+        let rows = (first..=end)
+            .map(|i| {
+                let (lo, hi) = self.interval(i, p);
+                (self.grid_kn[i], lo, hi)
+            })
+            .collect();
+        ThresholdCurve {
+            from_kn: a0,
+            reach_kn: reach,
+            rows,
+            slopes: (s_lo, s_hi),
+        }
+    }
+
     /// Thresholds `[low, high]` on `prediction − measurement` (kN) at a point where the force
     /// is `y_kn`, holding probability `p`.
     pub fn thresholds(&self, y_kn: f64, p: f64) -> (f64, f64) {
@@ -234,6 +335,44 @@ mod tests {
         let s: Vec<f64> = (0..1000).map(|i| i as f64 / 1000.0).collect();
         let (lo, hi) = shortest_interval(&s, 0.9);
         assert!((hi - lo - 0.899).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_threshold_curve_is_the_thresholds_at_the_prediction_and_encloses_them_beyond() {
+        let cu = CombinedUncertainty::new(&IdentificationParams::default());
+        let p = 0.95f64.powf(1.0 / 40.0);
+        for y in [0.0, 0.3, 4.0, 12.5, 40.0, 180.0] {
+            let c = cu.curve(y, p);
+            // Inside its reach: the same interpolation as `thresholds` at the prediction's force.
+            let mut g = y.max(0.01);
+            while g <= c.reach_kn {
+                let (a, b) = (c.at(g), cu.thresholds(g, p));
+                assert!(
+                    (a.0 - b.0).abs() < 1e-12 && (a.1 - b.1).abs() < 1e-12,
+                    "{y} {g}"
+                );
+                let (a, b) = (c.at(-g), cu.thresholds(-g, p));
+                assert!(
+                    (a.0 - b.0).abs() < 1e-12 && (a.1 - b.1).abs() < 1e-12,
+                    "{y} -{g}"
+                );
+                g = g * 1.07 + 0.05;
+            }
+            // Beyond it: an interval at least as wide as the one at the prediction's force, on
+            // both sides (so an instance there is never judged more strictly).
+            for g in [c.reach_kn * 1.5, c.reach_kn * 3.0 + 10.0] {
+                let (a, b) = (c.at(g), cu.thresholds_exact(g, p));
+                assert!(
+                    a.0 <= b.0 + 1e-9 && a.1 >= b.1 - 1e-9,
+                    "{y} {g}: {a:?} {b:?}"
+                );
+            }
+            // A prediction above the measurement gets thresholds at least as wide as the
+            // measurement's own (model errors are fractions of the prediction).
+            let (lo_y, hi_y) = cu.thresholds(y, p);
+            let (lo_g, hi_g) = c.at(1.3 * y + 1.0);
+            assert!(hi_g >= hi_y && lo_g <= lo_y, "{y}");
+        }
     }
 
     #[test]

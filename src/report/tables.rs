@@ -85,12 +85,17 @@ pub fn comparison_table(id: &Identification, truth: Option<&Truth>) -> String {
 pub fn identification_text(id: &Identification) -> String {
     let mut s = format!("{}\n{}\n", id.summary, id.maintenance_hint);
     s += &format!(
-        "alignment: {} (bank time = file time {:+.4} s{}); {} EIP of {} PIPs; per-point probability {:.5}\n",
+        "alignment: {} (bank time = file time {:+.4} s{}); {} EIP of {} PIPs{}; per-point probability {:.5}\n",
         id.alignment.method,
         id.alignment.shift_s,
         id.alignment.correlation.map(|c| format!(", correlation {c:.4}")).unwrap_or_default(),
         id.eip.len(),
         id.candidates.len(),
+        if id.envelope.is_empty() {
+            String::new()
+        } else {
+            format!(" + {} envelope points", id.envelope.len())
+        },
         id.per_point_probability
     );
     let t: Vec<String> = id
@@ -155,10 +160,11 @@ pub fn audit_table(c: &MeasuredCheck) -> String {
                 p.threshold_kn[0], p.threshold_kn[1], p.widening_kn
             ),
             p.outside_by_kn,
-            if p.outside_by_kn > 0.0 {
-                "falsifies"
-            } else {
-                "inside"
+            match (p.outside_by_kn > 0.0, &p.envelope) {
+                (true, None) => "falsifies".to_string(),
+                (false, None) => "inside".to_string(),
+                (true, Some(w)) => format!("falsifies (envelope {w})"),
+                (false, Some(w)) => format!("inside (envelope {w})"),
             }
         );
     }
@@ -321,6 +327,7 @@ mod tests {
             threshold_kn: [-2.0, 2.0],
             widening_kn: 0.25,
             outside_by_kn,
+            envelope: None,
         }
     }
 

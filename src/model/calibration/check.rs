@@ -346,6 +346,18 @@ impl Calibration {
         }
         non_negative("identification.alpha_fraction", id.alpha_fraction)?;
         non_negative("identification.bank_resolution", id.bank_resolution)?;
+        within(
+            "identification.envelope_windows_per_sensor",
+            id.envelope_windows_per_sensor as f64,
+            0.0,
+            20.0,
+        )?;
+        within(
+            "identification.envelope_half_width_samples",
+            id.envelope_half_width_samples as f64,
+            0.0,
+            50.0,
+        )?;
 
         within(
             "identification.monte_carlo_samples",

@@ -242,6 +242,13 @@ pub struct IdentificationParams {
     /// candidate ranges are the union of the surviving cells. 0: the paper's thresholds alone,
     /// as if the truth were one of the instances.
     pub bank_resolution: f64,
+    /// Envelope windows per sensor: after the EIP, the maximum and the minimum of the series
+    /// over a short window at each of the samples where the measurement departs most from the
+    /// flat-free signature (the impact spikes) are compared too (`identify::envelope`).
+    /// 0: the EIP alone.
+    pub envelope_windows_per_sensor: usize,
+    /// Half-width of an envelope window (output samples; 2 = ±0.8 ms at 2.5 kHz).
+    pub envelope_half_width_samples: usize,
     /// Maintenance rule: upper bound of the fresh-flat length L0 (mm) from which the wheelset
     /// is to be removed from service within 24 hours.
     pub urgent_l0_mm: f64,

@@ -351,6 +351,7 @@ const PIP_COLOUR: RGBColor = RGBColor(70, 70, 70);
 const EIP_COLOUR: RGBColor = TAB_RED;
 const EIP_LABEL_COLOUR: RGBColor = RGBColor(150, 20, 20);
 const BAND_COLOUR: RGBColor = TAB_ORANGE;
+const ENVELOPE_COLOUR: RGBColor = RGBColor(44, 160, 44);
 const BAR_COLOUR: RGBColor = RGBColor(120, 155, 195);
 const CMS_COLOUR: RGBColor = RGBColor(125, 125, 125);
 const REFERENCE_COLOUR: RGBColor = RGBColor(40, 40, 40);

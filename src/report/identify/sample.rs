@@ -161,6 +161,7 @@ pub fn identification() -> Identification {
         candidates,
         eip,
         eip_joint_entropy_bits: vec![4.4, 7.1, 9.0, 10.3, 11.1, 11.6],
+        envelope: Vec::new(),
         alpha_bits: 0.05,
         entropy_curves: vec![
             EntropyCurve {

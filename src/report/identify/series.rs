@@ -6,7 +6,8 @@ use plotters::prelude::*;
 
 use super::{
     annotation_font, centred_note, chart_builder, draw_mesh, eip_order, frame, Entry, Swatch,
-    BAND_COLOUR, CAPTION_SIZE, EIP_COLOUR, EIP_LABEL_COLOUR, MEASURED_COLOUR, PIP_COLOUR,
+    BAND_COLOUR, CAPTION_SIZE, EIP_COLOUR, EIP_LABEL_COLOUR, ENVELOPE_COLOUR, MEASURED_COLOUR,
+    PIP_COLOUR,
 };
 use crate::identify::result::Identification;
 use crate::report::canvas::{
@@ -17,7 +18,7 @@ pub(super) fn render_series<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     id: &Identification,
 ) -> Result<(), String> {
-    let entries = [
+    let mut entries = vec![
         Entry::new("measured", Swatch::Line(MEASURED_COLOUR, 2)),
         Entry::new("PIP", Swatch::HollowCircle(PIP_COLOUR)),
         Entry::new(
@@ -29,11 +30,18 @@ pub(super) fn render_series<DB: DrawingBackend>(
             Swatch::ErrorBar(BAND_COLOUR),
         ),
     ];
+    if !id.envelope.is_empty() {
+        entries.push(Entry::new(
+            "envelope point: the window's max or min, and the admissible band",
+            Swatch::Line(ENVELOPE_COLOUR, 3),
+        ));
+    }
     let title = format!(
-        "Measured series: {} PIP ({} distance), {} EIP",
+        "Measured series: {} PIP ({} distance), {} EIP, {} envelope points",
         id.candidates.len(),
         id.pip_distance,
-        id.eip.len()
+        id.eip.len(),
+        id.envelope.len()
     );
     let body = frame(root, &title, &entries)?;
     if id.series.is_empty() {
@@ -75,6 +83,7 @@ fn series_panel<DB: DrawingBackend>(
         .filter_map(|&(i, c)| order.get(i).copied().flatten().map(|n| (n, c)))
         .collect();
 
+    let envelope: Vec<_> = id.envelope.iter().filter(|e| e.series == k).collect();
     let (t_lo, t_hi) = pad_range(
         min_max(
             time.iter()
@@ -93,6 +102,12 @@ fn series_panel<DB: DrawingBackend>(
                     [
                         c.measured_kn + c.threshold_low_kn,
                         c.measured_kn + c.threshold_high_kn,
+                    ]
+                }))
+                .chain(envelope.iter().flat_map(|e| {
+                    [
+                        e.measured_kn + e.threshold_low_kn,
+                        e.measured_kn + e.threshold_high_kn,
                     ]
                 })),
         ),
@@ -135,6 +150,36 @@ fn series_panel<DB: DrawingBackend>(
             .map_err(msg)?;
         chart.plotting_area().draw(&cap(lo)).map_err(msg)?;
         chart.plotting_area().draw(&cap(hi)).map_err(msg)?;
+    }
+
+    // Envelope points: the window's extreme as a bar across the window, the admissible band
+    // as a light box around it.
+    for e in &envelope {
+        let (a, b) = (
+            s.t0_s + (e.sample as f64 - e.half_width as f64) * dt,
+            s.t0_s + (e.sample as f64 + e.half_width as f64) * dt,
+        );
+        let (lo, hi) = (
+            e.measured_kn + e.threshold_low_kn,
+            e.measured_kn + e.threshold_high_kn,
+        );
+        if !(a.is_finite() && b.is_finite() && lo.is_finite() && hi.is_finite()) {
+            continue;
+        }
+        chart
+            .plotting_area()
+            .draw(&Rectangle::new(
+                [(a, lo), (b, hi)],
+                ENVELOPE_COLOUR.mix(0.25).filled(),
+            ))
+            .map_err(msg)?;
+        chart
+            .plotting_area()
+            .draw(&PathElement::new(
+                vec![(a, e.measured_kn), (b, e.measured_kn)],
+                ShapeStyle::from(&ENVELOPE_COLOUR).stroke_width(3),
+            ))
+            .map_err(msg)?;
     }
 
     let hollow = ShapeStyle::from(&PIP_COLOUR).stroke_width(2);
