@@ -67,15 +67,18 @@ pub struct ThresholdCurve {
     rows: Vec<(f64, f64, f64)>,
     /// The smallest and largest sample of S.
     slopes: (f64, f64),
+    /// The interval at `reach_kn` (kept: most predictions falsification asks about lie beyond).
+    at_reach: (f64, f64),
 }
 
 impl ThresholdCurve {
     /// Thresholds `[low, high]` on `g − y` for a prediction of magnitude above the measured
     /// one; `g` carries its sign as in [`CombinedUncertainty::thresholds`].
+    #[inline]
     pub fn at(&self, g_kn: f64) -> (f64, f64) {
         let a = g_kn.abs().max(self.from_kn);
         let (lo, hi) = if a > self.reach_kn {
-            let (l, h) = self.interpolate(self.reach_kn);
+            let (l, h) = self.at_reach;
             let d = a - self.reach_kn;
             (
                 l + d * self.slopes.0.min(0.0),
@@ -293,12 +296,15 @@ impl CombinedUncertainty {
                 (self.grid_kn[i], lo, hi)
             })
             .collect();
-        ThresholdCurve {
+        let mut c = ThresholdCurve {
             from_kn: a0,
             reach_kn: reach,
             rows,
             slopes: (s_lo, s_hi),
-        }
+            at_reach: (0.0, 0.0),
+        };
+        c.at_reach = c.interpolate(reach);
+        c
     }
 
     /// Thresholds `[low, high]` on `prediction − measurement` (kN) at a point where the force
