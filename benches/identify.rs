@@ -100,11 +100,7 @@ fn bench_identify(c: &mut Criterion) {
             measured_kn: r.candidates[e].measured_kn,
             low_kn: r.candidates[e].threshold_low_kn,
             high_kn: r.candidates[e].threshold_high_kn,
-            curve: if std::env::var("NO_CURVE").is_ok() {
-                None
-            } else {
-                Some(c)
-            },
+            curve: Some(c),
         })
         .collect();
     points.extend(wheelflat::identify::envelope::as_points(
