@@ -13,7 +13,8 @@ What it implements (the Rust source it follows, docs/identification.md for the m
    pyarrow, the `wheelflat.bank` JSON of the first shard's footer (sensor axes, flat-free
    template, calibration with the identification settings), the parameter columns, and the
    stored neighbour graph `neighbours.bin` (src/bank/{reader,schema,neighbours}.rs; a bank
-   without one gets the graph searched by brute force, slowly). The footers are read through
+   without one, or with one of the earlier format, gets the graph searched by brute force,
+   slowly). The footers are read through
    pyarrow: a `layout.bin` the bank may carry (src/bank/layout.rs) is not needed;
 2. the measurement CSV, its alignment (laser trigger, or cross-correlation against the
    flat-free template) and its series on the bank windows (src/identify/measurement.rs);
@@ -26,8 +27,11 @@ What it implements (the Rust source it follows, docs/identification.md for the m
    κ × the median neighbour spread over ~1024 anchors (src/identify/cells.rs, `typical_widening`);
 7. binning (at most 65,536 bins, `MAX_BINS`) and the two-pass lazy greedy joint-entropy
    selection (src/identify/entropy.rs, `Identifier::identify` in src/identify/mod.rs);
-8. falsification with the cell widening, the candidate model set and the ranges of L, d, c,
-   X_p and L0 as the union of the surviving cells (src/identify/{falsify,ranges}.rs).
+8. envelope points at the impact spikes (src/identify/envelope.rs), falsification with the cell
+   widening (neighbours in the sensitivity-stretched metric) and the thresholds at the
+   prediction's force where it exceeds the measurement (src/identify/uncertainty.rs), the
+   candidate model set and the ranges of L, d, c, X_p and L0 as the union of the surviving
+   cells (src/identify/{falsify,ranges}.rs).
 
 It writes a JSON (CMS count and instances, the selected points, per-point probability,
 ranges, timings per stage) and prints one verdict line. The baselines of `--report` (random

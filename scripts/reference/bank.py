@@ -16,11 +16,12 @@ import numpy as np
 import pyarrow.parquet as pq
 
 from .errors import Failure
-from .neighbours import NEIGHBOURS, neighbour_graph
+from .neighbours import NEIGHBOURS, cell_weights, neighbour_graph
 
 PARAMETER_COLUMNS = ["length_mm", "depth_mm", "curvature_mm", "impact_position_m", "l0_mm", "flat_wheel"]
 METADATA_KEY = b"wheelflat.bank"
-NEIGHBOURS_MAGIC = b"WFNEIGH1"
+NEIGHBOURS_MAGIC = b"WFNEIGH2"
+EARLIER_NEIGHBOURS_MAGIC = b"WFNEIGH1"
 FORMAT_VERSION = 2
 
 
@@ -126,16 +127,24 @@ class Bank:
         data = path.read_bytes()
         if len(data) != aux["bytes"] or hashlib.sha256(data).hexdigest() != aux["sha256"]:
             raise Failure(f"{path}: size or SHA-256 differs from the manifest")
-        if data[:8] != NEIGHBOURS_MAGIC:
+        if data[:8] not in (NEIGHBOURS_MAGIC, EARLIER_NEIGHBOURS_MAGIC):
             raise Failure(f"{path}: not a wheelflat neighbour graph (bad magic)")
         n = int.from_bytes(data[8:16], "little")
         k = int.from_bytes(data[16:20], "little")
         id_len = int.from_bytes(data[20:24], "little")
         if data[24:24 + id_len].decode() != self.manifest["bank_id"] or n != self.n or k != NEIGHBOURS:
             raise Failure(f"{path}: belongs to another bank ({n} instances × {k})")
-        graph = np.frombuffer(data, dtype="<u4", offset=24 + id_len)
+        start = 24 + id_len
+        weights = (1.0, 1.0, 1.0, 1.0)
+        if data[:8] == NEIGHBOURS_MAGIC:
+            weights = tuple(float(w) for w in np.frombuffer(data, dtype="<f8", count=4, offset=start))
+            start += 32
+        graph = np.frombuffer(data, dtype="<u4", offset=start)
         if graph.size != n * k or (graph >= n).any():
             raise Failure(f"{path}: wrong size or an index outside the bank")
+        if weights != cell_weights(self.population):
+            # Searched in another metric (an earlier graph): search it as the Rust does at open.
+            return neighbour_graph(self.params, self.population)
         return graph.reshape(n, k).astype(np.int64)
 
     def close(self):

@@ -7,21 +7,35 @@ import numpy as np
 
 
 def falsify(points, neighbours, kappa):
-    """Rows that no point falsifies. `points`: (predictions f32, measured, low, high). A row
-    outside the band passes when some neighbour predicts at least (distance to the band)/κ
+    """Rows that no point falsifies. `points`: (predictions f32, measured, low, high, curve).
+    A row whose prediction exceeds the measurement and lies outside the measured force's band
+    is judged with the band at its own force (`curve`, src/identify/uncertainty.rs); a row
+    outside its band passes when some neighbour predicts at least (distance to the band)/κ
     away from it (the cell widening κ·max_j |g_j − g_i|)."""
     n = points[0][0].size if points else 0
     alive = np.arange(n)
-    for g_all, y, low, high in points:
+    for g_all, y, low, high, curve in points:
         lo, hi = y + low, y + high
         g = g_all[alive].astype(np.float64)
         inside = (g >= lo) & (g <= hi)
+        out = np.flatnonzero(~inside)
+        go = g[out]
+        blo = np.full(go.size, lo)
+        bhi = np.full(go.size, hi)
+        if curve is not None:
+            above = np.abs(go) > abs(y)
+            if above.any():
+                clo, chi = curve.at(go[above])
+                blo[above] = y + clo
+                bhi[above] = y + chi
+        ok = (go >= blo) & (go <= bhi)
         if kappa > 0.0:
-            out = np.flatnonzero(~inside)
-            go = g[out]
-            need = np.where(go > hi, go - hi, lo - go) / kappa
-            gj = g_all[neighbours[alive[out]]].astype(np.float64)
-            inside[out] = (np.abs(gj - go[:, None]) >= need[:, None]).any(axis=1)
+            rest = np.flatnonzero(~ok)
+            gr = go[rest]
+            need = np.where(gr > bhi[rest], gr - bhi[rest], blo[rest] - gr) / kappa
+            gj = g_all[neighbours[alive[out[rest]]]].astype(np.float64)
+            ok[rest] = (np.abs(gj - gr[:, None]) >= need[:, None]).any(axis=1)
+        inside[out] = ok
         alive = alive[inside]
         if alive.size == 0:
             break

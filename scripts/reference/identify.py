@@ -17,6 +17,26 @@ from .measurement import cross_correlate
 from .pip import pips
 
 
+def envelope_windows(series, templates, per_series, half_width):
+    """Window centres (series, sample): per series the samples departing most from the
+    flat-free signature, at least 2w + 1 apart (src/identify/envelope.rs `windows`)."""
+    out = []
+    for si, y in enumerate(series):
+        n = min(len(y), len(templates[si]))
+        if per_series == 0 or n < 2 * half_width + 1:
+            continue
+        dev = [(abs(float(y[k]) - float(templates[si][k])), k) for k in range(half_width, n - half_width)]
+        dev.sort(key=lambda t: (-t[0], t[1]))
+        chosen = []
+        for _, k in dev:
+            if len(chosen) == per_series:
+                break
+            if all(abs(c - k) > 2 * half_width for c in chosen):
+                chosen.append(k)
+        out.extend((si, k) for k in sorted(chosen))
+    return out
+
+
 def identify(bank, settings, uncertainty, half_extent, m, sensors, watch):
     """Identifies measurement `m` against `bank` with only `sensors` (None: all the file has):
     the result as a dict for the JSON, each stage lapped on `watch`."""
@@ -96,12 +116,32 @@ def identify(bank, settings, uncertainty, half_extent, m, sensors, watch):
     watch.lap("binning 2")
     eip, joint_bits = greedy_joint_entropy(binned, allowed, alpha, m1, n)
     m_final = max(len(eip), 1)
-    p_final = phi ** (1.0 / m_final)
     watch.lap("greedy 2")
 
+    # Envelope points at the impact spikes (src/identify/envelope.rs); Šídák over every point.
+    hw = settings["envelope_half_width_samples"]
+    centres = envelope_windows(series, [bank.template[bi] for _, bi in used],
+                               settings["envelope_windows_per_sensor"], hw)
+    p_final = phi ** (1.0 / (m_final + 2 * len(centres)))
+    env_points = []
+    if centres:
+        rows = bank.read_samples([bank.column_name(used[si][1], j)
+                                  for si, k in centres for j in range(k - hw, k + hw + 1)])
+        per = 2 * hw + 1
+        for c, (si, k) in enumerate(centres):
+            window = rows[c * per:(c + 1) * per]
+            for use_max in (True, False):
+                feature = window.max(axis=0) if use_max else window.min(axis=0)
+                y_window = series[si][k - hw:k + hw + 1]
+                y_feature = float(max(y_window) if use_max else min(y_window))
+                lo, hi = uncertainty.thresholds(y_feature, p_final)
+                env_points.append((feature, y_feature, lo, hi, uncertainty.curve(y_feature, p_final)))
+    watch.lap("envelope")
+
     thresholds = [uncertainty.thresholds(float(y), p_final) for y in measured]
-    points = [(predictions[i], float(measured[i]), thresholds[i][0], thresholds[i][1]) for i in eip]
-    cms = falsify(points, bank.neighbours, kappa)
+    points = [(predictions[i], float(measured[i]), thresholds[i][0], thresholds[i][1],
+               uncertainty.curve(float(measured[i]), p_final)) for i in eip]
+    cms = falsify(points + env_points, bank.neighbours, kappa)
     watch.lap("falsify")
 
     params = bank.params
@@ -115,7 +155,7 @@ def identify(bank, settings, uncertainty, half_extent, m, sensors, watch):
         if r is not None:
             wheel_ranges.append({"wheel": wheel, "cms_count": int(members.size), "ranges": r})
     residual = np.zeros(n)
-    for g, y, _, _ in points:
+    for g, y, _, _, _ in points:
         residual += (g.astype(np.float64) - y) ** 2
     rm = int(np.argmin(residual)) if points else 0
     watch.lap("ranges")
@@ -157,6 +197,7 @@ def identify(bank, settings, uncertainty, half_extent, m, sensors, watch):
             for i in eip
         ],
         "eip_joint_entropy_bits": [float(b) for b in joint_bits],
+        "envelope_points": len(env_points),
         "per_point_probability": p_final,
         "cms_count": int(cms.size),
         "cms_instances": [int(params["instance"][k]) for k in cms],

@@ -5,6 +5,26 @@ import numpy as np
 
 NEIGHBOURS = 8
 
+# Threshold half-widths per mm (L, d, c, X_p): src/bank/neighbours.rs SENSITIVITY_PER_MM.
+SENSITIVITY_PER_MM = (0.27, 30.0, 22.5, 0.8)
+
+
+def cell_weights(pop):
+    """The axis weights of the cells' metric (src/bank/neighbours.rs `cell_weights`)."""
+
+    def span(r):
+        return max(r[1] - r[0], 0.0)
+
+    mid_depth = 0.5 * (pop["depth_mm"][0] + pop["depth_mm"][1])
+    c_span = max(min(pop["curvature_mm"][1], mid_depth / 2.0) - pop["curvature_mm"][0], 0.0)
+    w = (
+        SENSITIVITY_PER_MM[0] * span(pop["length_mm"]),
+        SENSITIVITY_PER_MM[1] * span(pop["depth_mm"]),
+        SENSITIVITY_PER_MM[2] * c_span,
+        SENSITIVITY_PER_MM[3] * span(pop["impact_position_m"]) * 1e3,
+    )
+    return tuple(max(v, 1e-6) for v in w)
+
 
 def unit_points(p, pop):
     """Unit-cube coordinates (L, d, c/c_max, X_p) of every instance."""
@@ -22,9 +42,10 @@ def unit_points(p, pop):
     )
 
 
-def nearest(points, k):
-    """The `k` nearest other points of each point (ties to the lower index), brute force in
-    row blocks: the fallback for a bank written without `neighbours.bin`."""
+def nearest(points, k, weights=(1.0, 1.0, 1.0, 1.0)):
+    """The `k` nearest other points of each point (ties to the lower index; distance
+    Σ (w_t·Δx_t)²), brute force in row blocks: the fallback for a bank written without
+    `neighbours.bin`."""
     n = len(points)
     if n <= k:
         return np.array([[i if t + 1 >= n else (t if t < i else t + 1) for t in range(k)] for i in range(n)],
@@ -35,7 +56,7 @@ def nearest(points, k):
         x = points[start:start + block]
         d2 = np.zeros((len(x), n))
         for t in range(4):  # summed in dimension order, as the Rust search does
-            d2 += (x[:, t, None] - points[None, :, t]) ** 2
+            d2 += (weights[t] * (x[:, t, None] - points[None, :, t])) ** 2
         d2[np.arange(len(x)), np.arange(start, start + len(x))] = np.inf
         part = np.argpartition(d2, k, axis=1)[:, :k + 1]
         for r in range(len(x)):
@@ -48,11 +69,13 @@ def nearest(points, k):
 
 
 def neighbour_graph(p, pop):
-    """The graph among the instances of the same wheel (src/bank/neighbours.rs)."""
+    """The graph among the instances of the same wheel, in the metric of `cell_weights`
+    (src/bank/neighbours.rs)."""
     unit = unit_points(p, pop)
+    weights = cell_weights(pop)
     graph = np.zeros((len(unit), NEIGHBOURS), dtype=np.int64)
     for wheel in (0, 1):
         members = np.flatnonzero(p["flat_wheel"] == wheel)
         if members.size:
-            graph[members] = members[nearest(unit[members], NEIGHBOURS)]
+            graph[members] = members[nearest(unit[members], NEIGHBOURS, weights)]
     return graph

@@ -11,6 +11,8 @@ DEFAULT_IDENTIFICATION = {
     "random_subsets": 2000,
     "seed": 1,
     "bank_resolution": 0.5,
+    "envelope_windows_per_sensor": 3,
+    "envelope_half_width_samples": 2,
     "urgent_l0_mm": 40.0,
     "inspect_l0_mm": 25.0,
     "uncertainty": [

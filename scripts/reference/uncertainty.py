@@ -81,6 +81,8 @@ class CombinedUncertainty:
         self.grid = grid
         self.rows = {}
         self.intervals = {}
+        self.s_range = (float(self.s.min()), float(self.s.max()))
+        self.minus_t_max = float((-self.t).max())
 
     def interval(self, row, p):
         key = (row, p)
@@ -100,3 +102,48 @@ class CombinedUncertainty:
         l1, h1 = self.interval(i, p)
         lo, hi = l0 + w * (l1 - l0), h0 + w * (h1 - h0)
         return (-hi, -lo) if y_kn < 0.0 else (lo, hi)
+
+    def curve(self, y_kn, p):
+        """The thresholds of a point measured at `y_kn` as a function of the prediction's force
+        (src/identify/uncertainty.rs `ThresholdCurve`)."""
+        return ThresholdCurve(self, y_kn, p)
+
+
+class ThresholdCurve:
+    """Thresholds at a prediction's own force where it exceeds the measurement: the grid rows
+    from |y| to the force beyond which nothing passes even the hard bounds, interpolated as
+    `thresholds` does, extended beyond by the extreme slopes of S."""
+
+    def __init__(self, cu, y_kn, p):
+        grid = cu.grid
+        last = grid[-1]
+        a0 = min(abs(y_kn), last)
+        s_lo, s_hi = cu.s_range
+        reach = min((a0 + cu.minus_t_max) / (1.0 - s_hi), last) if s_hi < 1.0 else last
+        first = min(max(bisect.bisect_right(grid, a0), 1), len(grid) - 1) - 1
+        end = min(max(bisect.bisect_left(grid, reach), first + 1), len(grid) - 1)
+        self.from_kn = a0
+        self.reach_kn = reach
+        self.slopes = (s_lo, s_hi)
+        self.g = np.array([grid[i] for i in range(first, end + 1)])
+        iv = [cu.interval(i, p) for i in range(first, end + 1)]
+        self.lo = np.array([v[0] for v in iv])
+        self.hi = np.array([v[1] for v in iv])
+        self.at_reach = self._interpolate(np.array([reach]))
+
+    def _interpolate(self, a):
+        i = np.clip(np.searchsorted(self.g, a, side="right"), 1, self.g.size - 1)
+        g0, g1 = self.g[i - 1], self.g[i]
+        w = np.where(g1 > g0, (a - g0) / np.where(g1 > g0, g1 - g0, 1.0), 0.0)
+        l0, l1, h0, h1 = self.lo[i - 1], self.lo[i], self.hi[i - 1], self.hi[i]
+        return l0 + w * (l1 - l0), h0 + w * (h1 - h0)
+
+    def at(self, g):
+        """`(low, high)` arrays on g − y for predictions `g` (f64 array)."""
+        a = np.maximum(np.abs(g), self.from_kn)
+        lo, hi = self._interpolate(np.minimum(a, self.reach_kn))
+        beyond = a > self.reach_kn
+        d = a - self.reach_kn
+        lo = np.where(beyond, self.at_reach[0] + d * min(self.slopes[0], 0.0), lo)
+        hi = np.where(beyond, self.at_reach[1] + d * max(self.slopes[1], 0.0), hi)
+        return np.where(g < 0.0, -hi, lo), np.where(g < 0.0, -lo, hi)
