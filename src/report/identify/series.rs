@@ -32,7 +32,7 @@ pub(super) fn render_series<DB: DrawingBackend>(
     ];
     if !id.envelope.is_empty() {
         entries.push(Entry::new(
-            "envelope point: the window's max or min, and the admissible band",
+            "envelope point: the window's max or min (tick) and its admissible band",
             Swatch::Line(ENVELOPE_COLOUR, 3),
         ));
     }
@@ -152,34 +152,34 @@ fn series_panel<DB: DrawingBackend>(
         chart.plotting_area().draw(&cap(hi)).map_err(msg)?;
     }
 
-    // Envelope points: the window's extreme as a bar across the window, the admissible band
-    // as a light box around it.
+    // Envelope points: the admissible band as a green bar with caps at the window's centre,
+    // the window's measured extreme as a short thick tick (a window is 1.6 ms, too short to
+    // see on a whole record, so the marks have a fixed size in pixels).
+    let env_band = ShapeStyle::from(&ENVELOPE_COLOUR.mix(0.6)).stroke_width(2);
+    let env_tick = ShapeStyle::from(&ENVELOPE_COLOUR).stroke_width(3);
     for e in &envelope {
-        let (a, b) = (
-            s.t0_s + (e.sample as f64 - e.half_width as f64) * dt,
-            s.t0_s + (e.sample as f64 + e.half_width as f64) * dt,
-        );
+        let tc = s.t0_s + e.sample as f64 * dt;
         let (lo, hi) = (
             e.measured_kn + e.threshold_low_kn,
             e.measured_kn + e.threshold_high_kn,
         );
-        if !(a.is_finite() && b.is_finite() && lo.is_finite() && hi.is_finite()) {
+        if !(tc.is_finite() && lo.is_finite() && hi.is_finite()) {
             continue;
         }
-        chart
-            .plotting_area()
-            .draw(&Rectangle::new(
-                [(a, lo), (b, hi)],
-                ENVELOPE_COLOUR.mix(0.25).filled(),
-            ))
+        let area = chart.plotting_area();
+        area.draw(&PathElement::new(vec![(tc, lo), (tc, hi)], env_band))
             .map_err(msg)?;
-        chart
-            .plotting_area()
-            .draw(&PathElement::new(
-                vec![(a, e.measured_kn), (b, e.measured_kn)],
-                ShapeStyle::from(&ENVELOPE_COLOUR).stroke_width(3),
-            ))
+        for y in [lo, hi] {
+            area.draw(
+                &(EmptyElement::at((tc, y)) + PathElement::new(vec![(-4, 0), (4, 0)], env_band)),
+            )
             .map_err(msg)?;
+        }
+        area.draw(
+            &(EmptyElement::at((tc, e.measured_kn))
+                + PathElement::new(vec![(-9, 0), (9, 0)], env_tick)),
+        )
+        .map_err(msg)?;
     }
 
     let hollow = ShapeStyle::from(&PIP_COLOUR).stroke_width(2);
