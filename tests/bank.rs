@@ -340,6 +340,73 @@ fn the_stored_neighbour_graph_is_the_one_searched_from_the_stored_parameters() {
     assert!(problems[0].path == path, "{problems:?}");
 }
 
+/// A bank whose graph was written in the earlier format (searched in the plain unit cube,
+/// magic `WFNEIGH1`) still opens and verifies, is identified with the graph of today's
+/// stretched metric (searched at open), and `generate` on the up-to-date bank replaces the
+/// file with today's format and weights.
+#[test]
+fn an_earlier_neighbour_graph_is_searched_again_and_replaced_by_generate() {
+    use wheelflat::bank::neighbours::{cell_weights, neighbour_graph, neighbour_graph_weighted};
+    let cal = bank_calibration();
+    let dir = tempfile::tempdir().unwrap();
+    let Outcome::Complete { version, .. } =
+        generate_with_threads(&cal, dir.path(), &options(40, 16), 2)
+    else {
+        panic!()
+    };
+    let bank = Bank::open(dir.path()).unwrap();
+    let params = bank.read_parameters().unwrap();
+    let weights = cell_weights(&cal.population);
+    assert_eq!(bank.neighbour_weights(), Some(weights));
+    let today = neighbour_graph(&params, &cal.population);
+    let plain = neighbour_graph_weighted(&params, &cal.population, [1.0; 4]);
+    assert_ne!(today, plain, "the stretched metric changes the graph");
+    // Write the plain graph in the earlier format: magic, count, k, id, indices.
+    let id = bank.metadata().bank_id.clone();
+    let mut bytes = b"WFNEIGH1".to_vec();
+    bytes.extend_from_slice(&(params.length_mm.len() as u64).to_le_bytes());
+    bytes.extend_from_slice(&(bank::neighbours::NEIGHBOURS as u32).to_le_bytes());
+    bytes.extend_from_slice(&(id.len() as u32).to_le_bytes());
+    bytes.extend_from_slice(id.as_bytes());
+    for v in &plain {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    std::fs::write(version.join("neighbours.bin"), &bytes).unwrap();
+    let manifest_path = version.join("manifest.json");
+    let mut manifest: bank::Manifest =
+        serde_json::from_str(&std::fs::read_to_string(&manifest_path).unwrap()).unwrap();
+    let aux = manifest.neighbours.as_mut().unwrap();
+    aux.bytes = bytes.len() as u64;
+    aux.sha256 = bank::schema::sha256_hex(&bytes);
+    common::write_manifest(&version, &manifest);
+    let earlier = Bank::open(dir.path()).unwrap();
+    assert_eq!(earlier.neighbour_weights(), Some([1.0; 4]));
+    assert_eq!(earlier.neighbours(), Some(plain.as_slice()));
+    assert!(bank::verify(dir.path()).unwrap().1.is_empty());
+    // Identification does not use a graph of another metric: it searches today's.
+    let identifier =
+        wheelflat::identify::Identifier::new(earlier, cal.identification.clone()).unwrap();
+    let cells = identifier.resolution().unwrap().cells;
+    for i in 0..params.length_mm.len() {
+        assert_eq!(
+            cells.neighbours(i),
+            &today[i * 8..(i + 1) * 8],
+            "instance {i}"
+        );
+    }
+    // generate on the up-to-date bank writes today's graph.
+    assert!(matches!(
+        generate_with_threads(&cal, dir.path(), &options(40, 16), 1),
+        Outcome::UpToDate { .. }
+    ));
+    let renewed = Bank::open(dir.path()).unwrap();
+    assert_eq!(renewed.neighbour_weights(), Some(weights));
+    assert_eq!(renewed.neighbours(), Some(today.as_slice()));
+    assert!(std::fs::read(version.join("neighbours.bin"))
+        .unwrap()
+        .starts_with(b"WFNEIGH2"));
+}
+
 /// The interop check runs a Python script with pyarrow, with the interpreter in
 /// `WHEELFLAT_PYTHON` (`.ci/run` points it at a virtual environment that has pyarrow), else
 /// `python3`. Under CI ([`common::under_ci`]) an interpreter without pyarrow fails the test; elsewhere
