@@ -63,10 +63,6 @@ impl Cells {
     }
 
     /// Cells from a neighbour list (the same number per point) and the points' (L, d, c, X_p).
-    pub fn from_graph(neighbours: Vec<u32>, coords: Vec<[f64; 4]>) -> Cells {
-        Cells::from_neighbours(neighbours, coords)
-    }
-
     fn from_neighbours(neighbours: Vec<u32>, coords: Vec<[f64; 4]>) -> Cells {
         // Neighbours per instance: the graph's length over the instances (NEIGHBOURS for a
         // bank's stored graph; studies may give more).

@@ -10,7 +10,7 @@ use crate::model::{Calibration, Flat, WheelPosition};
 
 /// The parameter ranges of a set of instances: the union of their cells when `cells` is
 /// given (what the bank can resolve), else the hull of the instances themselves.
-pub fn ranges_of(
+pub(crate) fn ranges_of(
     params: &Parameters,
     cells: Option<&Cells>,
     population: &PopulationParams,
