@@ -7,7 +7,7 @@
 //! as drift.
 
 use crate::bank::{Bank, BankError, StoredInstance};
-use crate::identify::{Identification, Identifier};
+use crate::identify::{envelope, Identification, Identifier};
 use crate::model::{
     CheckedCalibration, Flat, Record, SimError, Simulator, WheelPosition, Workspace,
 };
@@ -278,6 +278,10 @@ pub struct MeasuredCheck {
 
 /// One comparison point as falsification judges an instance there.
 struct Judged<'a> {
+    order: usize,
+    sensor: &'a str,
+    sample: usize,
+    time_s: f64,
     predicted: f64,
     measured: f64,
     /// The measured force's thresholds.
@@ -287,17 +291,8 @@ struct Judged<'a> {
 }
 
 impl Judged<'_> {
-    #[allow(clippy::too_many_arguments)]
-    fn check(
-        &self,
-        identifier: &Identifier,
-        i: usize,
-        p: f64,
-        order: usize,
-        sensor: &str,
-        sample: usize,
-        time_s: f64,
-    ) -> PointCheck {
+    /// The check of instance `i` at per-point probability `p`.
+    fn check(&self, identifier: &Identifier, i: usize, p: f64) -> PointCheck {
         let residual = self.predicted - self.measured;
         let widening = identifier
             .resolution()
@@ -318,10 +313,10 @@ impl Judged<'_> {
             -(residual - lo).min(hi - residual)
         };
         PointCheck {
-            order,
-            sensor: sensor.to_string(),
-            sample,
-            time_s,
+            order: self.order,
+            sensor: self.sensor.to_string(),
+            sample: self.sample,
+            time_s: self.time_s,
             measured_kn: self.measured,
             predicted_kn: self.predicted,
             residual_kn: residual,
@@ -367,12 +362,16 @@ pub fn check_against(
     {
         let c = &id.candidates[e];
         let judged = Judged {
+            order: order + 1,
+            sensor: &axes[axis].name,
+            sample: k,
+            time_s: c.time_s,
             predicted: stored.forces_kn[axis][k] as f64,
             measured: c.measured_kn,
             thresholds: (c.threshold_low_kn, c.threshold_high_kn),
             all: col,
         };
-        points.push(judged.check(identifier, i, p, order + 1, &axes[axis].name, k, c.time_s));
+        points.push(judged.check(identifier, i, p));
     }
     // Envelope points: the window's extreme of the stored series, and of every instance for
     // the widening.
@@ -387,30 +386,20 @@ pub fn check_against(
         )?;
         let refs: Vec<&[f32]> = data.iter().map(Vec::as_slice).collect();
         let max = x.kind == "max";
-        let all = crate::identify::envelope::feature(&refs, max);
-        let own = crate::identify::envelope::feature(
-            &window
-                .map(|k| std::slice::from_ref(&stored.forces_kn[axis][k]))
-                .collect::<Vec<_>>(),
-            max,
-        )[0];
+        let all = envelope::feature(&refs, max);
+        let own = envelope::extreme(window.map(|k| stored.forces_kn[axis][k] as f64), max);
+        let ser = &id.series[x.series];
         let judged = Judged {
-            predicted: own as f64,
+            order: id.eip.len() + j + 1,
+            sensor: &axes[axis].name,
+            sample: x.sample,
+            time_s: ser.t0_s + x.sample as f64 / ser.sample_rate_hz,
+            predicted: own,
             measured: x.measured_kn,
             thresholds: (x.threshold_low_kn, x.threshold_high_kn),
             all: &all,
         };
-        let ser = &id.series[x.series];
-        let t = ser.t0_s + x.sample as f64 / ser.sample_rate_hz;
-        let mut check = judged.check(
-            identifier,
-            i,
-            p,
-            id.eip.len() + j + 1,
-            &axes[axis].name,
-            x.sample,
-            t,
-        );
+        let mut check = judged.check(identifier, i, p);
         check.envelope = Some(format!("{} ±{}", x.kind, x.half_width));
         points.push(check);
     }

@@ -18,7 +18,7 @@
 //! beside the old one, and a rerun of the same arguments finds its own unfinished version.
 
 use super::layout::{Derived, Layout, EARLIER_MAGIC, LAYOUT_FILE};
-use super::neighbours::{cell_weights, neighbour_graph, NEIGHBOURS_FILE};
+use super::neighbours::{cell_weights, in_metric_of, neighbour_graph, NEIGHBOURS_FILE};
 use super::population::Population;
 use super::schema::{
     bank_id, bank_metadata_text, calibration_sha256, open_shard, sensor_axes, sha256_hex,
@@ -201,11 +201,10 @@ fn write_layout(
     write_aux(version, LAYOUT_FILE, &layout.encode()).map(Some)
 }
 
-/// A complete version written before the graph or the layout was stored (or with either in an
-/// earlier format) gets them now: the
-/// files, then the manifest rewritten atomically with their entries (readers see the old or
-/// the new manifest, and either describes files that are in place). Returns whether anything
-/// was added.
+/// A complete version written before the graph or the layout was stored (or with a graph of
+/// another metric, a layout of an earlier format) gets them now: the files, then the manifest
+/// rewritten atomically with their entries (readers see the old or the new manifest, and
+/// either describes files that are in place). Returns whether anything was added.
 fn add_missing_aux(
     version: &Path,
     cal: &CheckedCalibration,
@@ -213,11 +212,13 @@ fn add_missing_aux(
 ) -> Result<bool, BankError> {
     let mut manifest = super::version::read_manifest(version)?;
     let mut added = false;
-    // A graph of the earlier format (searched without the axis weights) is replaced too.
-    let earlier_graph = manifest.neighbours.as_ref().is_some_and(|aux| {
-        std::fs::read(version.join(&aux.name)).is_ok_and(|b| b.starts_with(b"WFNEIGH1"))
+    // A graph searched in another metric (the earlier, unstretched format, or other axis
+    // weights) is replaced too; a damaged one stays, for `bank verify` to report.
+    let other_metric = manifest.neighbours.as_ref().is_some_and(|aux| {
+        super::version::read_neighbours(version, aux, &manifest.bank_id, manifest.instances)
+            .is_ok_and(|g| !in_metric_of(g.weights, &cal.population))
     });
-    if manifest.neighbours.is_none() || earlier_graph {
+    if manifest.neighbours.is_none() || other_metric {
         manifest.neighbours = Some(write_neighbours(version, &manifest.bank_id, cal, opts)?);
         added = true;
     }

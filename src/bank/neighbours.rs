@@ -61,6 +61,12 @@ pub fn cell_weights(pop: &PopulationParams) -> [f64; 4] {
     w.map(|v| v.max(1e-6))
 }
 
+/// Whether a graph searched with axis `weights` is the one [`neighbour_graph`] searches for a
+/// population (the same weights, bit for bit).
+pub fn in_metric_of(weights: [f64; 4], pop: &PopulationParams) -> bool {
+    weights.map(f64::to_bits) == cell_weights(pop).map(f64::to_bits)
+}
+
 /// Unit-cube coordinates of every instance (the space the population was sampled in).
 pub fn unit_points(p: &Parameters, r: &PopulationParams) -> Vec<[f64; 4]> {
     let unit = |v: f64, range: [f64; 2]| {

@@ -87,14 +87,23 @@ pub fn feature(columns: &[&[f32]], max: bool) -> Vec<f32> {
     out
 }
 
+/// The maximum (`max = true`) or minimum of some values.
+pub fn extreme(values: impl Iterator<Item = f64>, max: bool) -> f64 {
+    if max {
+        values.fold(f64::NEG_INFINITY, f64::max)
+    } else {
+        values.fold(f64::INFINITY, f64::min)
+    }
+}
+
 /// The measured feature of a window.
 pub fn measured_feature(values: &[f64], centre: usize, half_width: usize, max: bool) -> f64 {
-    let w = &values[centre - half_width..=centre + half_width];
-    if max {
-        w.iter().copied().fold(f64::NEG_INFINITY, f64::max)
-    } else {
-        w.iter().copied().fold(f64::INFINITY, f64::min)
-    }
+    extreme(
+        values[centre - half_width..=centre + half_width]
+            .iter()
+            .copied(),
+        max,
+    )
 }
 
 /// The envelope points of a measurement with their features, thresholds and threshold curves
@@ -106,17 +115,14 @@ pub fn points(
     half_width: usize,
     uncertainty: &CombinedUncertainty,
     p: f64,
-    columns: &[Vec<f32>],
+    columns: &[&[f32]],
 ) -> (Vec<EnvelopePoint>, Vec<Vec<f32>>, Vec<ThresholdCurve>) {
     let mut reported = Vec::with_capacity(2 * centres.len());
     let mut features = Vec::with_capacity(2 * centres.len());
     let mut curves = Vec::with_capacity(2 * centres.len());
     let per = 2 * half_width + 1;
     for (c, &(si, k)) in centres.iter().enumerate() {
-        let cols: Vec<&[f32]> = columns[c * per..(c + 1) * per]
-            .iter()
-            .map(Vec::as_slice)
-            .collect();
+        let cols = &columns[c * per..(c + 1) * per];
         for max in [true, false] {
             let y = measured_feature(&series[si].values_kn, k, half_width, max);
             let (lo, hi) = uncertainty.thresholds(y, p);
@@ -129,7 +135,7 @@ pub fn points(
                 threshold_low_kn: lo,
                 threshold_high_kn: hi,
             });
-            features.push(feature(&cols, max));
+            features.push(feature(cols, max));
             curves.push(uncertainty.curve(y, p));
         }
     }

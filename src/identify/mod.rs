@@ -132,9 +132,10 @@ impl Identifier {
     pub fn new(bank: Bank, settings: IdentificationParams) -> Result<Identifier, IdentifyError> {
         // The stored graph when it was searched in today's metric; else (a bank written
         // before the metric was stretched) searched now, 0.3 s for 50,000 instances.
-        let weights =
-            crate::bank::neighbours::cell_weights(&bank.metadata().calibration.population);
-        let graph = (bank.neighbour_weights() == Some(weights))
+        let population = &bank.metadata().calibration.population;
+        let graph = bank
+            .neighbour_weights()
+            .is_some_and(|w| crate::bank::neighbours::in_metric_of(w, population))
             .then(|| bank.neighbours().map(<[u32]>::to_vec))
             .flatten();
         Identifier::with_neighbours(bank, settings, graph)
@@ -185,7 +186,7 @@ impl Identifier {
     /// force's, or the prediction's own where it is larger ([`ThresholdCurve`]).
     pub fn band(&self, y_kn: f64, g_kn: f64, p: f64) -> (f64, f64) {
         if g_kn.abs() > y_kn.abs() {
-            self.uncertainty.curve(y_kn, p).at(g_kn)
+            self.threshold_curve(y_kn, p).at(g_kn)
         } else {
             self.uncertainty.thresholds(y_kn, p)
         }
@@ -377,11 +378,25 @@ impl Identifier {
         let meta = self.bank.metadata();
         let cal = &meta.calibration;
         let s = &self.settings;
+        // Envelope windows at the impact spikes (identify::envelope): they depend on the
+        // measurement only, so their columns are read with the candidates'.
+        let hw = s.envelope_half_width_samples;
+        let template: Vec<&[f32]> = used
+            .iter()
+            .map(|&(_, bi)| meta.flat_free_kn[bi].as_slice())
+            .collect();
+        let centres = envelope::windows(&series, &template, s.envelope_windows_per_sensor, hw);
         lap("align and pip", &mut timings);
-        // Bank predictions at the candidates (the hot read).
+        // Bank predictions at the candidates, then the envelope windows' (the hot read).
         let cols: Vec<usize> = cands
             .iter()
             .map(|&(si, k, _)| self.bank.sample_index(used[si].1, k))
+            .chain(
+                centres
+                    .iter()
+                    .flat_map(|&(si, k)| (k - hw..=k + hw).map(move |j| (si, j)))
+                    .map(|(si, j)| self.bank.sample_index(used[si].1, j)),
+            )
             .collect();
         let n = self.bank.instances();
         let mut buffer = self.buffers.lock().unwrap_or_else(|e| e.into_inner());
@@ -392,7 +407,9 @@ impl Identifier {
             ))
         })?;
         self.bank.read_columns_flat(&cols, flat)?;
+        let (flat, env_flat) = flat.split_at(cands.len() * n);
         let predictions: Vec<&[f32]> = flat.chunks(n.max(1)).collect();
+        let env_columns: Vec<&[f32]> = env_flat.chunks(n.max(1)).collect();
         lap("read columns", &mut timings);
 
         let measured: Vec<f64> = cands
@@ -438,22 +455,16 @@ impl Identifier {
         let m_final = selection.order.len().max(1);
         lap("greedy 2", &mut timings);
 
-        // Envelope points at the impact spikes (identify::envelope); Šídák over every point.
-        let hw = s.envelope_half_width_samples;
-        let template: Vec<&[f32]> = used
-            .iter()
-            .map(|&(_, bi)| meta.flat_free_kn[bi].as_slice())
-            .collect();
-        let centres = envelope::windows(&series, &template, s.envelope_windows_per_sensor, hw);
+        // Envelope points; Šídák over every point.
         let p_final = s.phi.powf(1.0 / (m_final + 2 * centres.len()) as f64);
-        let env_cols: Vec<usize> = centres
-            .iter()
-            .flat_map(|&(si, k)| (k - hw..=k + hw).map(move |j| (si, j)))
-            .map(|(si, j)| self.bank.sample_index(used[si].1, j))
-            .collect();
-        let env_data = self.bank.read_columns(&env_cols)?;
-        let (env_reported, env_features, env_curves) =
-            envelope::points(&series, &centres, hw, &self.uncertainty, p_final, &env_data);
+        let (env_reported, env_features, env_curves) = envelope::points(
+            &series,
+            &centres,
+            hw,
+            &self.uncertainty,
+            p_final,
+            &env_columns,
+        );
         lap("envelope", &mut timings);
 
         let thresholds: Vec<(f64, f64)> = (0..measured.len())
