@@ -293,15 +293,21 @@ fn corrupt_or_truncated_files_are_named_never_a_panic() {
     assert!(err.contains("not a wheelflat bank"), "{err}");
 }
 
-#[test]
-fn the_stored_neighbour_graph_is_the_one_searched_from_the_stored_parameters() {
-    let cal = bank_calibration();
+/// A complete 40-instance bank of `cal` in a temporary folder, and its version directory.
+fn complete_bank(cal: &CheckedCalibration) -> (tempfile::TempDir, std::path::PathBuf) {
     let dir = tempfile::tempdir().unwrap();
     let Outcome::Complete { version, .. } =
-        generate_with_threads(&cal, dir.path(), &options(40, 16), 2)
+        generate_with_threads(cal, dir.path(), &options(40, 16), 2)
     else {
         panic!()
     };
+    (dir, version)
+}
+
+#[test]
+fn the_stored_neighbour_graph_is_the_one_searched_from_the_stored_parameters() {
+    let cal = bank_calibration();
+    let (dir, version) = complete_bank(&cal);
     let bank = Bank::open(dir.path()).unwrap();
     let searched =
         bank::neighbours::neighbour_graph(&bank.read_parameters().unwrap(), &cal.population);
@@ -309,9 +315,7 @@ fn the_stored_neighbour_graph_is_the_one_searched_from_the_stored_parameters() {
 
     // A bank written before the graph was stored: no entry, the reader has none; generate
     // on the up-to-date bank adds it, and then it is the same graph.
-    let manifest_path = version.join("manifest.json");
-    let mut manifest: bank::Manifest =
-        serde_json::from_str(&std::fs::read_to_string(&manifest_path).unwrap()).unwrap();
+    let mut manifest = bank::version::read_manifest(&version).unwrap();
     manifest.neighbours = None;
     common::write_manifest(&version, &manifest);
     std::fs::remove_file(version.join("neighbours.bin")).unwrap();
@@ -348,12 +352,7 @@ fn the_stored_neighbour_graph_is_the_one_searched_from_the_stored_parameters() {
 fn an_earlier_neighbour_graph_is_searched_again_and_replaced_by_generate() {
     use wheelflat::bank::neighbours::{cell_weights, neighbour_graph, neighbour_graph_weighted};
     let cal = bank_calibration();
-    let dir = tempfile::tempdir().unwrap();
-    let Outcome::Complete { version, .. } =
-        generate_with_threads(&cal, dir.path(), &options(40, 16), 2)
-    else {
-        panic!()
-    };
+    let (dir, version) = complete_bank(&cal);
     let bank = Bank::open(dir.path()).unwrap();
     let params = bank.read_parameters().unwrap();
     let weights = cell_weights(&cal.population);
@@ -372,9 +371,7 @@ fn an_earlier_neighbour_graph_is_searched_again_and_replaced_by_generate() {
         bytes.extend_from_slice(&v.to_le_bytes());
     }
     std::fs::write(version.join("neighbours.bin"), &bytes).unwrap();
-    let manifest_path = version.join("manifest.json");
-    let mut manifest: bank::Manifest =
-        serde_json::from_str(&std::fs::read_to_string(&manifest_path).unwrap()).unwrap();
+    let mut manifest = bank::version::read_manifest(&version).unwrap();
     let aux = manifest.neighbours.as_mut().unwrap();
     aux.bytes = bytes.len() as u64;
     aux.sha256 = bank::schema::sha256_hex(&bytes);
