@@ -38,10 +38,11 @@ fn bench_train(c: &mut Criterion) {
     let m = Measurement::from_csv(Path::new("train.csv"), &syn.csv, 2500.0).unwrap();
     let times = train::read_triggers(Path::new("t.csv"), &syn.triggers_csv).unwrap();
     let bogies = train::bogies_from_triggers(&cal, Path::new("t.csv"), &times).unwrap();
+    let ids = vec![&id; bogies.len()];
     let mut group = c.benchmark_group("train");
     group.sample_size(10);
     group.bench_function(format!("identify_12_bogies_{n}_instances"), |b| {
-        b.iter(|| train::identify_train(&id, black_box(&m), &bogies).unwrap())
+        b.iter(|| train::identify_train(&ids, black_box(&m), &bogies).unwrap())
     });
     group.finish();
 }

@@ -40,7 +40,7 @@ fn main() {
         let m = Measurement::from_csv(Path::new("train.csv"), &syn.csv, 2500.0).expect("csv");
         let times = train::read_triggers(Path::new("t.csv"), &syn.triggers_csv).expect("t");
         let bogies = train::bogies_from_triggers(&cal, Path::new("t.csv"), &times).expect("b");
-        let r = train::identify_train(&id, &m, &bogies).expect("train");
+        let r = train::identify_train(&vec![&id; bogies.len()], &m, &bogies).expect("train");
         ms += r.total_ms;
         let (mut f, mut i, mut ff) = (0, 0, 0);
         let mut line = Vec::new();

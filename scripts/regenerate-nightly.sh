@@ -4,6 +4,9 @@
 # beside the old one and switches CURRENT atomically when it is complete, so identification
 # keeps reading the old bank until then. An unchanged calibration is reported "up to date".
 # An interrupted run (reboot, kill) resumes the next night, keeping finished shard files.
+# BANK_DIR may be a bank family (`bank generate --speeds FROM:TO:STEP` built it): its band is
+# read from family.json, every member is regenerated, and family.json switches all members at
+# once when the last one is complete; verify and prune act on every member.
 #
 #   scripts/regenerate-nightly.sh CALIBRATION.toml BANK_DIR [extra `bank generate` args]
 #

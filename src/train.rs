@@ -16,7 +16,7 @@
 //! 12.5 m apart within a car and 9 m between cars.
 
 use crate::bank::Bank;
-use crate::identify::synth::{draw_sources, resolution_step_kn};
+use crate::identify::synth::{draw_sources, resolution_step_kn, MARGIN_SAMPLES};
 use crate::identify::{
     Extras, FlatFreeCheck, Identification, Identifier, IdentifyError, Measurement, Severity,
 };
@@ -49,6 +49,9 @@ pub struct TrainSpec {
     pub spacing_m: [f64; 2],
     /// Seed of the perturbation.
     pub seed: u64,
+    /// Each bogie's speed over the site (km/h), e.g. a train accelerating through it; empty:
+    /// every bogie at the calibration's speed.
+    pub speeds_km_per_h: Vec<f64>,
 }
 
 /// The default train's flats: bogie 2 leading (60 × 0.5 mm), bogie 7 trailing (45 × 0.3 mm),
@@ -83,6 +86,7 @@ impl TrainSpec {
             flats,
             spacing_m: [12.5, 9.0],
             seed,
+            speeds_km_per_h: Vec::new(),
         }
     }
 }
@@ -118,39 +122,72 @@ pub fn synthesize_train(
     cal: &CheckedCalibration,
     spec: &TrainSpec,
 ) -> Result<SyntheticTrain, SimError> {
-    let sim = Simulator::new(cal)?;
-    let v = cal.speed_m_per_s();
     let rate = cal.output.sample_rate_hz;
-    // Sample offset of each bogie: its centre's distance behind the first one.
-    let mut offsets = Vec::with_capacity(spec.bogies);
-    let mut distance = 0.0;
+    let speed_of = |b: usize| {
+        spec.speeds_km_per_h
+            .get(b)
+            .copied()
+            .unwrap_or(cal.run.speed_km_per_h)
+    };
+    // One simulator (and one good-wheel response) per distinct speed.
+    let mut speeds: Vec<f64> = (0..spec.bogies).map(speed_of).collect();
+    speeds.sort_by(f64::total_cmp);
+    speeds.dedup();
+    let sims: Vec<(f64, Simulator, crate::model::Response)> = speeds
+        .iter()
+        .map(|&kmh| {
+            let mut doc = cal.document().clone();
+            doc.run.speed_km_per_h = kmh;
+            // A margin around the windows, as `synth` records: a bogie at another speed than
+            // its bank's is read a little before and after them.
+            doc.output.window_samples += 2 * MARGIN_SAMPLES;
+            let c = doc.check().map_err(|e| SimError::Setup(e.to_string()))?;
+            let sim = Simulator::new(&c)?;
+            let good = sim.run(None, Record::default())?;
+            Ok((kmh, sim, good))
+        })
+        .collect::<Result<_, SimError>>()?;
+    let sim_of = |b: usize| {
+        sims.iter()
+            .find(|(kmh, ..)| kmh.to_bits() == speed_of(b).to_bits())
+            .expect("every bogie's speed has a simulator")
+    };
+    // Where each bogie's record starts on the recording clock (s): its centre's distance
+    // behind the first one at the speed of the bogie ahead, and its window's start.
+    let mut starts_s = Vec::with_capacity(spec.bogies);
+    let mut t = 0.0;
     for b in 0..spec.bogies {
-        offsets.push((distance / v * rate).round() as usize);
-        distance += spec.spacing_m[b % 2];
+        starts_s.push(t);
+        t += spec.spacing_m[b % 2] / (speed_of(b) / 3.6);
     }
+    let offsets: Vec<usize> = starts_s
+        .iter()
+        .map(|t| (t * rate).round() as usize)
+        .collect();
     let flat_of = |b: usize| {
         spec.flats
             .iter()
             .find(|f| f.bogie == b + 1)
             .map(|f| f.flat.on_wheel(f.wheel))
     };
-    let good = sim.run(None, Record::default())?;
     let flats: Vec<Option<crate::model::Response>> = (0..spec.bogies)
         .into_par_iter()
         .map(|b| {
             flat_of(b)
-                .map(|f| sim.run(Some(&f), Record::default()))
+                .map(|f| sim_of(b).1.run(Some(&f), Record::default()))
                 .transpose()
         })
         .collect::<Result<_, _>>()?;
     let n_sensors = cal.sensors.pad.len();
-    let first = good.first_sample;
-    let len = offsets.last().copied().unwrap_or(0) + good.len();
+    let len = (0..spec.bogies)
+        .map(|b| offsets[b] + sim_of(b).2.len())
+        .max()
+        .unwrap_or(0);
     let id = &cal.identification;
     let mut state = spec.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0x7EA1;
     let mut sum = vec![vec![0.0f64; len]; n_sensors];
     for (b, &off) in offsets.iter().enumerate() {
-        let resp = flats[b].as_ref().unwrap_or(&good);
+        let resp = flats[b].as_ref().unwrap_or(&sim_of(b).2);
         for (s, series) in resp.pad_force_n.iter().enumerate() {
             let e = draw_sources(
                 id,
@@ -177,10 +214,16 @@ pub fn synthesize_train(
         .collect();
     let step = resolution_step_kn(id);
     let names: Vec<&str> = cal.sensors.pad.iter().map(|p| p.name.as_str()).collect();
+    // The speed line only when every bogie ran at one speed (each bogie's own speed is in
+    // the triggers).
     let mut csv = format!(
-        "# wheelflat synthetic train: {} bogies (see the truth JSON)\n# speed_km_per_h = {}\ntime_s",
-        spec.bogies, cal.run.speed_km_per_h
+        "# wheelflat synthetic train: {} bogies (see the truth JSON)\n",
+        spec.bogies
     );
+    if speeds.len() == 1 {
+        csv += &format!("# speed_km_per_h = {}\n", speeds[0]);
+    }
+    csv += "time_s";
     for n in &names {
         csv += &format!(",{n}_kn");
     }
@@ -203,16 +246,18 @@ pub fn synthesize_train(
         }
         csv.push('\n');
     }
-    // Triggers on the recording clock: sample 0 is the bank's global sample `first` of bogie 1.
-    let t_lead = (cal.sensors.laser_trigger_m - cal.run.leading_wheel_start_m) / v;
-    let gap = 2.0 * cal.vehicle.half_wheelbase_m / v;
-    let leading: Vec<f64> = offsets
-        .iter()
-        .map(|&off| t_lead + (off as f64 - first as f64) / rate)
-        .collect();
+    // Triggers on the recording clock: bogie b's record starts at its offset, which holds
+    // its simulation's global sample `first_sample`.
+    let mut leading = Vec::with_capacity(spec.bogies);
     let mut triggers_csv = String::from("time_s\n");
-    for &t in &leading {
+    for (b, &off) in offsets.iter().enumerate() {
+        let v = speed_of(b) / 3.6;
+        let t_lead = (cal.sensors.laser_trigger_m - cal.run.leading_wheel_start_m) / v;
+        let first = sim_of(b).2.first_sample;
+        let t = t_lead + (off as f64 - first as f64) / rate;
+        let gap = 2.0 * cal.vehicle.half_wheelbase_m / v;
         triggers_csv += &format!("{t:.6}\n{:.6}\n", t + gap);
+        leading.push(t);
     }
     let radius = cal.vehicle.wheel_radius_m;
     Ok(SyntheticTrain {
@@ -277,13 +322,23 @@ pub fn read_triggers(path: &Path, text: &str) -> Result<Vec<f64>, IdentifyError>
     Ok(times)
 }
 
-/// Pairs the triggers into bogies (leading, trailing wheel) and checks each pair against the
-/// bank's wheelbase and speed (2 %).
+/// One bogie of a recording: its wheels' trigger times and the speed they give.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Bogie {
+    /// Leading and trailing wheel's trigger times (s, recording clock).
+    pub triggers_s: [f64; 2],
+    /// The bogie's speed over the laser (km/h): wheelbase / time between its wheels.
+    pub speed_km_per_h: f64,
+}
+
+/// Pairs the triggers into bogies (leading, trailing wheel), each with the speed its pair
+/// gives over the calibration's wheelbase (a train may accelerate through the site, so every
+/// bogie has its own); a speed outside 1–500 km/h is an error naming the line.
 pub fn bogies_from_triggers(
     cal: &CheckedCalibration,
     path: &Path,
     times: &[f64],
-) -> Result<Vec<[f64; 2]>, IdentifyError> {
+) -> Result<Vec<Bogie>, IdentifyError> {
     if !times.len().is_multiple_of(2) {
         return Err(IdentifyError::Measurement {
             path: path.to_path_buf(),
@@ -294,26 +349,27 @@ pub fn bogies_from_triggers(
             ),
         });
     }
-    let expected = 2.0 * cal.vehicle.half_wheelbase_m / cal.speed_m_per_s();
+    let wheelbase = 2.0 * cal.vehicle.half_wheelbase_m;
     times
         .chunks(2)
         .enumerate()
         .map(|(b, p)| {
             let gap = p[1] - p[0];
-            if (gap / expected - 1.0).abs() > 0.02 {
+            let speed = wheelbase / gap * 3.6;
+            if !(1.0..=500.0).contains(&speed) {
                 return Err(IdentifyError::Measurement {
                     path: path.to_path_buf(),
                     line: 2 * b + 2,
                     message: format!(
-                        "bogie {}: its wheels passed {gap:.4} s apart, which is {:.1} km/h over the {:.2} m wheelbase; the bank is for {} km/h (±2 %)",
+                        "bogie {}: its wheels passed {gap:.4} s apart, which is {speed:.1} km/h over the {wheelbase:.2} m wheelbase: not a train speed (1 to 500 km/h)",
                         b + 1,
-                        2.0 * cal.vehicle.half_wheelbase_m / gap * 3.6,
-                        2.0 * cal.vehicle.half_wheelbase_m,
-                        cal.run.speed_km_per_h
                     ),
                 });
             }
-            Ok([p[0], p[1]])
+            Ok(Bogie {
+                triggers_s: [p[0], p[1]],
+                speed_km_per_h: speed,
+            })
         })
         .collect()
 }
@@ -371,6 +427,12 @@ pub struct BogieResult {
     pub bogie: usize,
     /// Leading and trailing trigger times (s, recording clock).
     pub triggers_s: [f64; 2],
+    /// The bogie's speed from its triggers (km/h).
+    #[serde(default)]
+    pub speed_km_per_h: f64,
+    /// The speed of the bank (family member) it was compared with (km/h).
+    #[serde(default)]
+    pub bank_speed_km_per_h: f64,
     /// The good-wheel check.
     pub flat_free: FlatFreeCheck,
     /// The identification, when the good-wheel check failed.
@@ -384,7 +446,7 @@ pub struct BogieResult {
 pub struct TrainResult {
     /// The recording.
     pub recording: String,
-    /// The bank.
+    /// The bank, or the family members' banks in the order first used.
     pub bank_id: String,
     /// One line per wheel.
     pub wheels: Vec<WheelRow>,
@@ -398,46 +460,63 @@ pub struct TrainResult {
     pub total_ms: f64,
 }
 
-/// Identifies every bogie of a train recording.
+/// Identifies every bogie of a train recording, bogie `b` against `identifiers[b]` (the bank,
+/// or the family member at the bogie's speed; the recording is put on its time axis at the
+/// bogie's speed).
 pub fn identify_train(
-    identifier: &Identifier,
+    identifiers: &[&Identifier],
     recording: &Measurement,
-    bogies: &[[f64; 2]],
+    bogies: &[Bogie],
 ) -> Result<TrainResult, IdentifyError> {
+    if identifiers.len() != bogies.len() || bogies.is_empty() {
+        return Err(IdentifyError::Invalid(format!(
+            "{} bogies and {} banks for them",
+            bogies.len(),
+            identifiers.len()
+        )));
+    }
+    let identifier = identifiers[0];
     let clock = Instant::now();
     let s = identifier.settings();
     let mut results = Vec::with_capacity(bogies.len());
     let mut rows = Vec::with_capacity(2 * bogies.len());
     // Bogies closer than the windows reach: a neighbour's load inside the windows.
-    let meta = identifier.bank().metadata();
-    let first = meta.sensors.iter().map(|a| a.t0_s).fold(f64::MAX, f64::min);
-    let last = meta
-        .sensors
-        .iter()
-        .map(|a| a.t0_s + a.samples as f64 / a.sample_rate_hz)
-        .fold(f64::MIN, f64::max);
-    let reach_s = last - first;
-    let v = meta.calibration.run.speed_km_per_h / 3.6;
+    let reach_m = |id: &Identifier| {
+        let meta = id.bank().metadata();
+        let first = meta.sensors.iter().map(|a| a.t0_s).fold(f64::MAX, f64::min);
+        let last = meta
+            .sensors
+            .iter()
+            .map(|a| a.t0_s + a.samples as f64 / a.sample_rate_hz)
+            .fold(f64::MIN, f64::max);
+        (last - first) * meta.calibration.run.speed_km_per_h / 3.6
+    };
     let warnings: Vec<String> = bogies
         .windows(2)
         .enumerate()
-        .filter(|(_, p)| p[1][0] - p[0][0] < reach_s)
-        .map(|(b, p)| {
-            format!(
-                "bogies {} and {} are {:.1} m apart, closer than the {:.1} m the bank's windows reach: the neighbour's load inside the windows is not modelled",
+        .filter_map(|(b, p)| {
+            let apart_m = (p[1].triggers_s[0] - p[0].triggers_s[0]) * p[0].speed_km_per_h / 3.6;
+            let reach = reach_m(identifiers[b]);
+            (apart_m < reach).then(|| format!(
+                "bogies {} and {} are {apart_m:.1} m apart, closer than the {reach:.1} m the bank's windows reach: the neighbour's load inside the windows is not modelled",
                 b + 1,
                 b + 2,
-                (p[1][0] - p[0][0]) * v,
-                reach_s * v
-            )
+            ))
         })
         .collect();
     // A false "flat" on any good bogie of the train is kept below 1 − φ: Šídák over bogies.
     let phi_bogie = s.phi.powf(1.0 / bogies.len().max(1) as f64);
     let mut m = recording.clone();
-    for (b, &triggers) in bogies.iter().enumerate() {
+    let mut bank_ids: Vec<&str> = Vec::new();
+    for (b, bogie) in bogies.iter().enumerate() {
         let started = Instant::now();
-        m.laser_trigger_s = Some(triggers[0]);
+        let identifier = identifiers[b];
+        let id_of_bank = identifier.bank().metadata().bank_id.as_str();
+        if !bank_ids.contains(&id_of_bank) {
+            bank_ids.push(id_of_bank);
+        }
+        m.laser_trigger_s = Some(bogie.triggers_s[0]);
+        m.speed_km_per_h = Some(bogie.speed_km_per_h);
         let check = identifier.check_flat_free(&m, None, phi_bogie)?;
         let identification = if check.passes {
             None
@@ -465,7 +544,9 @@ pub fn identify_train(
         }
         results.push(BogieResult {
             bogie: b + 1,
-            triggers_s: triggers,
+            triggers_s: bogie.triggers_s,
+            speed_km_per_h: bogie.speed_km_per_h,
+            bank_speed_km_per_h: identifier.bank().metadata().calibration.run.speed_km_per_h,
             flat_free: check,
             identification,
             ms: started.elapsed().as_secs_f64() * 1e3,
@@ -473,7 +554,7 @@ pub fn identify_train(
     }
     Ok(TrainResult {
         recording: recording.path.display().to_string(),
-        bank_id: identifier.bank().metadata().bank_id.clone(),
+        bank_id: bank_ids.join(", "),
         wheels: rows,
         bogies: results,
         severity_rule: Severity::train_rule(phi_bogie, s),
@@ -505,14 +586,19 @@ mod tests {
         );
         let cal = Calibration::default().check().unwrap();
         let gap = 2.0 * cal.vehicle.half_wheelbase_m / cal.speed_m_per_s();
+        // Each bogie's speed from its own pair: 50 km/h, then 10 % slower (a gap 1/0.9 as long).
+        let b = bogies_from_triggers(&cal, p, &[1.0, 1.0 + gap, 2.0, 2.0 + gap / 0.9]).unwrap();
         assert_eq!(
-            bogies_from_triggers(&cal, p, &[1.0, 1.0 + gap]).unwrap(),
-            vec![[1.0, 1.0 + gap]]
+            b[0].triggers_s.map(f64::to_bits),
+            [1.0, 1.0 + gap].map(f64::to_bits)
         );
-        let e = bogies_from_triggers(&cal, p, &[1.0, 1.0 + 1.1 * gap])
+        assert!((b[0].speed_km_per_h - 50.0).abs() < 1e-9, "{b:?}");
+        assert!((b[1].speed_km_per_h - 45.0).abs() < 1e-9, "{b:?}");
+        let e = bogies_from_triggers(&cal, p, &[1.0, 1.0 + 100.0 * gap])
             .unwrap_err()
             .to_string();
-        assert!(e.contains("bogie 1: its wheels passed"), "{e}");
+        assert!(e.contains("line 2: bogie 1: its wheels passed"), "{e}");
+        assert!(e.contains("0.5 km/h"), "{e}");
         let e = bogies_from_triggers(&cal, p, &[1.0])
             .unwrap_err()
             .to_string();

@@ -42,7 +42,7 @@ fn flats_are_found_on_the_right_wheels_and_good_wheels_stay_good() {
     let times = train::read_triggers(Path::new("t.csv"), &syn.triggers_csv).unwrap();
     assert_eq!(times.len(), 24);
     let bogies = train::bogies_from_triggers(cal, Path::new("t.csv"), &times).unwrap();
-    let r = train::identify_train(&id, &m, &bogies).unwrap();
+    let r = train::identify_train(&vec![&id; bogies.len()], &m, &bogies).unwrap();
     print!("{}", wheelflat::report::train::table_text(&r));
     assert_eq!(r.wheels.len(), 24);
     for w in &r.wheels {
@@ -72,7 +72,9 @@ fn flats_are_found_on_the_right_wheels_and_good_wheels_stay_good() {
     // The table's CSV has a header and one line per wheel.
     let csv = wheelflat::report::train::table_csv(&r);
     assert_eq!(csv.lines().count(), 25);
-    assert!(csv.starts_with("car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity\n"));
+    assert!(csv.starts_with(
+        "car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity,speed_km_per_h,bank_speed_km_per_h\n"
+    ));
 }
 
 #[test]

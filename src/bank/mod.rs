@@ -6,6 +6,7 @@
 //!   [`generate`] and [`reader`] build on it, neither on the other.
 //! - [`writer`]: one shard file.
 //! - [`generate`]: parallel generation, resume, versions and the `CURRENT` pointer.
+//! - [`family`]: banks at speeds across a band, the member a pass is compared with.
 //! - [`reader`]: memory-mapped reading of projected columns; verification.
 //! - [`info`]: a bank's size and parameter ranges.
 //! - [`neighbours`]: the instances' neighbour graph, built at generation, stored with the bank.
@@ -14,6 +15,7 @@
 //! - [`verify`]: every file checked against the manifest in full.
 //! - [`lock`]: one writer at a time per bank directory; [`prune`]: old versions removed.
 
+pub mod family;
 pub mod generate;
 pub mod info;
 pub mod layout;

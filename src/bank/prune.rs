@@ -38,6 +38,12 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> BankError + '_ {
 /// Removes complete versions of bank `dir` beyond the `keep` newest (`keep` ≥ 1; the version
 /// `CURRENT` names is always kept).
 pub fn prune(dir: &Path, keep: usize) -> Result<Pruned, BankError> {
+    prune_keeping(dir, keep, &[])
+}
+
+/// [`prune`], keeping also the versions in `pinned` (a family's pins, which may lag the
+/// member's `CURRENT` while the family is regenerated); they are listed as kept.
+pub fn prune_keeping(dir: &Path, keep: usize, pinned: &[PathBuf]) -> Result<Pruned, BankError> {
     if keep == 0 {
         return Err(BankError::Invalid(
             "--keep must be at least 1: the version CURRENT names is always kept".into(),
@@ -57,6 +63,10 @@ pub fn prune(dir: &Path, keep: usize) -> Result<Pruned, BankError> {
         let path = entry.path();
         let name = entry.file_name().to_string_lossy().to_string();
         if !name.starts_with("v-") || !path.is_dir() || Some(&path) == current.as_ref() {
+            continue;
+        }
+        if pinned.contains(&path) {
+            out.kept.push(path);
             continue;
         }
         match std::fs::metadata(path.join(MANIFEST)).and_then(|m| m.modified()) {

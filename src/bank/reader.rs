@@ -86,6 +86,16 @@ impl Bank {
     /// files and parses their footers once.
     pub fn open(dir: &Path) -> Result<Bank, BankError> {
         let (version, manifest) = open_manifest(dir)?;
+        Bank::open_version(version, manifest)
+    }
+
+    /// Opens a pinned version (a family member): its manifest must hash to the pin.
+    pub fn open_current(current: &super::version::Current) -> Result<Bank, BankError> {
+        let manifest = super::version::open_pinned_manifest(current)?;
+        Bank::open_version(current.version.clone(), manifest)
+    }
+
+    fn open_version(version: PathBuf, manifest: Manifest) -> Result<Bank, BankError> {
         let Some(first) = manifest.files.first() else {
             return Err(BankError::Corrupt {
                 path: version.join(MANIFEST),

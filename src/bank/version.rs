@@ -50,8 +50,32 @@ pub fn read_current(dir: &Path) -> Result<Option<Current>, BankError> {
         path: path.clone(),
         source,
     })?;
+    parse_current(dir, &path, &text).map(Some)
+}
+
+/// A version pinned elsewhere (a family's `family.json`), checked as `CURRENT` is; `path`
+/// names the pin in messages.
+pub(crate) fn pinned(
+    dir: &Path,
+    path: &Path,
+    version_name: &str,
+    manifest_sha256: &str,
+) -> Result<Current, BankError> {
+    let text = format!("{version_name}\n{MANIFEST_KEY} {manifest_sha256}\n");
+    let c = parse_current(dir, path, &text)?;
+    if c.manifest_sha256.is_none() {
+        return Err(BankError::Corrupt {
+            path: path.to_path_buf(),
+            message: format!("{version_name}: no manifest hash"),
+        });
+    }
+    Ok(c)
+}
+
+/// The text of a `CURRENT` file of bank `dir` (read from `path`), checked.
+fn parse_current(dir: &Path, path: &Path, text: &str) -> Result<Current, BankError> {
     let bad = |message: String| BankError::Corrupt {
-        path: path.clone(),
+        path: path.to_path_buf(),
         message,
     };
     let mut lines = text.lines().map(str::trim).filter(|l| !l.is_empty());
@@ -90,10 +114,10 @@ pub fn read_current(dir: &Path) -> Result<Option<Current>, BankError> {
             extra.chars().take(80).collect::<String>()
         )));
     }
-    Ok(Some(Current {
+    Ok(Current {
         version: dir.join(name),
         manifest_sha256,
-    }))
+    })
 }
 
 /// The version directory a bank path designates: `DIR/CURRENT`'s target, or `DIR` itself when
@@ -146,6 +170,25 @@ pub fn open_manifest(dir: &Path) -> Result<(PathBuf, Manifest), BankError> {
         let manifest = parse_manifest(&path, &bytes)?;
         return Ok((current.version, manifest));
     }
+}
+
+/// The manifest of a pinned version (a family member), checked against the pin's hash.
+pub fn open_pinned_manifest(current: &Current) -> Result<Manifest, BankError> {
+    let path = current.version.join(MANIFEST);
+    let bytes = std::fs::read(&path).map_err(|source| BankError::Io {
+        path: path.clone(),
+        source,
+    })?;
+    if let Some(want) = &current.manifest_sha256 {
+        let got = sha256_hex(&bytes);
+        if &got != want {
+            return Err(BankError::Corrupt {
+                path,
+                message: format!("sha256 {got}, the family manifest pins {want}"),
+            });
+        }
+    }
+    parse_manifest(&path, &bytes)
 }
 
 fn parse_manifest(path: &Path, bytes: &[u8]) -> Result<Manifest, BankError> {

@@ -4,6 +4,7 @@
 //! The doc comments on the fields and variants are the `--help` text; the types themselves
 //! carry plain comments so that clap does not take them for help text.
 
+use crate::bank::family::SpeedBand;
 use crate::bank::{Codec, ValueEncoding};
 use crate::model::{Effect, Flat, WheelPosition};
 use crate::train::TrainFlat;
@@ -179,6 +180,11 @@ pub(super) struct GenerateArgs {
     /// Encoding of the force columns.
     #[arg(long, value_enum, default_value_t = ValueEncoding::Plain)]
     pub encoding: ValueEncoding,
+    /// A bank family: one member per train speed FROM:TO:STEP km/h (e.g. `40:60:2`), each a
+    /// bank of the calibration at that speed, and `family.json` when all are complete. A
+    /// family directory remembers its band: without this flag it is regenerated as it is.
+    #[arg(long, value_parser = SpeedBand::parse)]
+    pub speeds: Option<SpeedBand>,
 }
 
 impl GenerateArgs {
@@ -195,6 +201,7 @@ impl GenerateArgs {
             shard_size: DEFAULT_SHARD_SIZE,
             compression: Codec::None,
             encoding: ValueEncoding::Plain,
+            speeds: None,
         }
     }
 }
@@ -209,6 +216,13 @@ fn parse_threads(s: &str) -> std::result::Result<usize, String> {
         _ => Err(format!(
             "`{s}`: a whole number of threads from 1 to {MAX_THREADS}"
         )),
+    }
+}
+
+fn parse_speed(s: &str) -> std::result::Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if (1.0..=500.0).contains(&v) => Ok(v),
+        _ => Err(format!("`{s}`: a train speed in km/h from 1 to 500")),
     }
 }
 
@@ -285,6 +299,10 @@ pub(super) struct MeasuredArgs {
     /// the bank's.
     #[arg(long)]
     pub calibration: Option<PathBuf>,
+    /// The pass's train speed (km/h), for a measurement without a `# speed_km_per_h` line;
+    /// it picks the bank of a family the pass is compared with.
+    #[arg(long, value_parser = parse_speed)]
+    pub speed: Option<f64>,
 }
 
 // `identify`.
@@ -374,6 +392,10 @@ pub(super) struct AuditArgs {
     /// Folder for `audit.json` and `audit.png`.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Train speed (km/h): picks the member of a bank family (the measurement's speed line
+    /// does when a measurement is given; this is for one without).
+    #[arg(long, value_parser = parse_speed)]
+    pub speed: Option<f64>,
 }
 
 // `diagnose`.

@@ -1,25 +1,38 @@
 //! `wheelflat audit`: one instance re-simulated and, with a measurement, judged point by point.
 
 use super::args::AuditArgs;
-use super::{create_output_folder, open_identifier, write_file};
+use super::{create_output_folder, open_bank_at, open_identifier, write_file};
 use crate::audit::{check_against, compare, Resimulator};
 use crate::bank::Bank;
 use crate::report::audit::draw_audit;
 use crate::report::tables::{
     audit_instance_line, audit_json, audit_panels, audit_table, audit_title,
 };
-use anyhow::{Context, Result};
+use anyhow::Result;
 
 /// Re-simulates the instance, prints the verdict (and the table against a measurement), and
 /// writes `audit.json` and `audit.png` when given a folder.
 pub(super) fn run(a: &AuditArgs) -> Result<()> {
-    let b =
-        Bank::open(&a.bank).with_context(|| format!("cannot open bank {}", a.bank.display()))?;
+    // With a measurement, the bank (a family's member) its speed picks; without, the bank or
+    // the member `--speed` names.
+    let opened = match &a.measured {
+        Some(measured) => Ok(open_identifier(
+            &a.bank,
+            measured,
+            a.calibration.as_deref(),
+            a.speed,
+        )?),
+        None => Err(open_bank_at(&a.bank, a.speed)?),
+    };
+    let b: &Bank = match &opened {
+        Ok((identifier, _)) => identifier.bank(),
+        Err(bank) => bank,
+    };
     let stored = b.read_instance(a.instance)?;
     println!("{}", audit_instance_line(&stored));
-    let resim = Resimulator::new(&b, None)?;
+    let resim = Resimulator::new(b, None)?;
     let series = resim.run(&stored, &mut resim.workspace())?;
-    let comparison = compare(&stored, &series, &b);
+    let comparison = compare(&stored, &series, b);
     println!(
         "re-simulated with the bank's stored calibration (bank id {}): {}",
         b.metadata().bank_id,
@@ -30,10 +43,9 @@ pub(super) fn run(a: &AuditArgs) -> Result<()> {
     }
     let mut check = None;
     let mut identification = None;
-    if let Some(measured) = &a.measured {
-        let (identifier, m) = open_identifier(&a.bank, measured, a.calibration.as_deref())?;
-        let id = identifier.identify(&m, a.sensors.as_deref(), crate::identify::Extras::NONE)?;
-        let c = check_against(&identifier, &id, &stored)?;
+    if let Ok((identifier, m)) = &opened {
+        let id = identifier.identify(m, a.sensors.as_deref(), crate::identify::Extras::NONE)?;
+        let c = check_against(identifier, &id, &stored)?;
         print!("{}", audit_table(&c));
         check = Some(c);
         identification = Some(id);

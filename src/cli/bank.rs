@@ -4,6 +4,7 @@ use super::args::GenerateArgs;
 use super::load_calibration;
 use super::progress::Progress;
 use crate::audit::BankAudit;
+use crate::bank::family::{read_family_manifest, SpeedBand, FAMILY_FILE};
 use crate::bank::info::{parameter_ranges, BankSize};
 use crate::bank::{self, Bank, GenerateOptions, Outcome, StorageFormat};
 use anyhow::{Context, Result};
@@ -34,24 +35,88 @@ pub(super) fn generate(a: &GenerateArgs, simulate_missing: bool) -> Result<()> {
         .context("cannot start the worker threads")?;
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create bank directory {}", a.out.display()))?;
+    // A family directory remembers its band.
+    let band = match a.speeds {
+        Some(b) => Some(b),
+        None if a.out.join(FAMILY_FILE).is_file() => Some(
+            read_family_manifest(&a.out)
+                .with_context(|| format!("bank family {}", a.out.display()))?
+                .0
+                .band,
+        ),
+        None => None,
+    };
+    if let Some(band) = band {
+        return generate_family(a, &cal, &opts, band, threads, &pool);
+    }
     let progress = Progress::new().with_terminal();
     let started = Instant::now();
     let outcome = pool.install(|| bank::generate(&cal, &a.out, &opts, &progress));
     progress.finish();
     let outcome = outcome.with_context(|| format!("bank {}", a.out.display()))?;
     let secs = started.elapsed().as_secs_f64();
+    report_outcome(a, &a.out, &outcome, secs, threads);
+    Ok(())
+}
+
+/// `bank generate --speeds` (or on a family directory): every member, then `family.json`.
+fn generate_family(
+    a: &GenerateArgs,
+    cal: &crate::model::CheckedCalibration,
+    opts: &GenerateOptions,
+    band: SpeedBand,
+    threads: usize,
+    pool: &rayon::ThreadPool,
+) -> Result<()> {
+    let started = Instant::now();
+    let speeds = band.speeds();
+    println!(
+        "bank family {}: {} members, {band}",
+        a.out.display(),
+        speeds.len()
+    );
+    let progress = Progress::new().with_terminal();
+    let announce = |k: usize, n: usize, v: f64| {
+        eprintln!("member {}/{n}: {v} km/h", k + 1);
+    };
+    let outcome = pool
+        .install(|| bank::family::generate_family(cal, &a.out, band, opts, &progress, &announce));
+    progress.finish();
+    let outcome = outcome.with_context(|| format!("bank family {}", a.out.display()))?;
+    for (v, o, secs) in &outcome.members {
+        let dir = a.out.join(bank::family::member_dir_name(*v));
+        report_outcome(a, &dir, o, *secs, threads);
+    }
+    let secs = started.elapsed().as_secs_f64();
+    if outcome.manifest_written {
+        println!(
+            "bank family complete: {} members ({band}) in {secs:.1} s; {} pins each member's version",
+            speeds.len(),
+            a.out.join(FAMILY_FILE).display()
+        );
+    } else {
+        println!(
+            "this machine's part of every member is done ({secs:.1} s); run `wheelflat bank merge` with the same arguments when all parts are done"
+        );
+    }
+    Ok(())
+}
+
+/// Says what a generate call did for one bank.
+fn report_outcome(a: &GenerateArgs, dir: &Path, outcome: &Outcome, secs: f64, threads: usize) {
+    let took = format!(" in {secs:.1} s");
     match outcome {
         Outcome::UpToDate { version, upgraded } => {
-            if upgraded {
+            if *upgraded {
                 println!(
                     "bank {} is up to date ({}); added or renewed what this wheelflat stores beside the shards (neighbour graph, column layout, manifest hash in CURRENT) ({secs:.1} s)",
-                    a.out.display(),
+                    dir.display(),
                     version.display()
                 );
             } else {
                 println!(
                     "bank {} is up to date ({}); nothing to do",
-                    a.out.display(),
+                    dir.display(),
                     version.display()
                 );
             }
@@ -62,10 +127,10 @@ pub(super) fn generate(a: &GenerateArgs, simulate_missing: bool) -> Result<()> {
             resumed,
         } => {
             println!(
-                "bank complete: {} instances in {} ({simulated} simulated in {secs:.1} s, {:.0} instances/s on {threads} threads; {resumed} kept from an earlier run); CURRENT -> {}",
+                "bank complete: {} instances in {} ({simulated} simulated{took}, {:.0} instances/s on {threads} threads; {resumed} kept from an earlier run); CURRENT -> {}",
                 a.instances,
                 version.display(),
-                simulated as f64 / secs.max(1e-9),
+                *simulated as f64 / secs.max(1e-9),
                 version.file_name().map(|n| n.to_string_lossy()).unwrap_or_default()
             );
         }
@@ -76,16 +141,18 @@ pub(super) fn generate(a: &GenerateArgs, simulate_missing: bool) -> Result<()> {
         } => {
             let (i, n) = a.shard.unwrap_or((0, 1));
             println!(
-                "shard {i}/{n} done: {files} shard files in {} ({simulated} instances simulated in {secs:.1} s); run `wheelflat bank merge` with the same arguments when all shards are done",
+                "shard {i}/{n} done: {files} shard files in {} ({simulated} instances simulated{took}); run `wheelflat bank merge` with the same arguments when all shards are done",
                 version.display()
             );
         }
     }
-    Ok(())
 }
 
 /// `bank info`: metadata, size and parameter ranges.
 pub(super) fn info(dir: &Path) -> Result<()> {
+    if super::family::is_family(dir) {
+        return super::family::info(dir);
+    }
     let b = Bank::open(dir).with_context(|| format!("cannot open bank {}", dir.display()))?;
     let m = b.metadata();
     let size = BankSize::of(&b);
@@ -124,6 +191,9 @@ pub(super) fn info(dir: &Path) -> Result<()> {
 
 /// `bank verify`: every file against the manifest; fails naming the bad files.
 pub(super) fn verify(dir: &Path) -> Result<()> {
+    if super::family::is_family(dir) {
+        return super::family::verify(dir);
+    }
     let (manifest, problems) =
         bank::verify(dir).with_context(|| format!("cannot verify bank {}", dir.display()))?;
     if problems.is_empty() {
@@ -148,8 +218,17 @@ pub(super) fn verify(dir: &Path) -> Result<()> {
 
 /// `bank prune`: removes old versions ([`bank::prune::prune`]) and says what it did and left.
 pub(super) fn prune(dir: &Path, keep: usize) -> Result<()> {
+    if super::family::is_family(dir) {
+        return super::family::prune(dir, keep);
+    }
     let p = bank::prune::prune(dir, keep)
         .with_context(|| format!("cannot prune bank {}", dir.display()))?;
+    print_pruned(dir, &p);
+    Ok(())
+}
+
+/// What a prune did and left, a line each.
+pub(super) fn print_pruned(dir: &Path, p: &bank::prune::Pruned) {
     let name = |p: &Path| {
         p.file_name()
             .map(|n| n.to_string_lossy().to_string())
@@ -179,22 +258,36 @@ pub(super) fn prune(dir: &Path, keep: usize) -> Result<()> {
         p.removed.len(),
         freed as f64 / 1e6
     );
-    Ok(())
 }
 
 /// `bank audit`: re-simulates `sample` instances ([`BankAudit`]), prints each verdict and
 /// fails on drift.
 pub(super) fn audit(dir: &Path, sample: usize, calibration: Option<&Path>) -> Result<()> {
+    if super::family::is_family(dir) {
+        return super::family::audit(dir, sample, calibration);
+    }
     let b = Bank::open(dir).with_context(|| format!("cannot open bank {}", dir.display()))?;
     let against = match calibration {
         Some(p) => Some(load_calibration(Some(p))?),
         None => None,
     };
+    audit_bank(&b, dir, against, calibration, sample)
+}
+
+/// Audits one open bank (`against`: the calibration to re-simulate with, read from
+/// `calibration`).
+pub(super) fn audit_bank(
+    b: &Bank,
+    dir: &Path,
+    against: Option<crate::model::CheckedCalibration>,
+    calibration: Option<&Path>,
+    sample: usize,
+) -> Result<()> {
     let what = match calibration {
         Some(p) => format!("the calibration in {}", p.display()),
         None => "the calibration stored in the bank".into(),
     };
-    let plan = BankAudit::new(&b, against, sample)?;
+    let plan = BankAudit::new(b, against, sample)?;
     println!(
         "bank {} ({} instances, bank id {}): re-simulating {} instances with {what}",
         dir.display(),

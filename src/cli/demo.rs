@@ -64,7 +64,7 @@ pub(super) fn run(out: &Path, bank_dir: &Path, instances: usize) -> Result<()> {
     );
 
     println!("\n4. Identify");
-    let (identifier, m) = open_identifier(bank_dir, &measured, None)?;
+    let (identifier, m) = open_identifier(bank_dir, &measured, None, None)?;
     let id = identifier.identify(
         &m,
         None,

@@ -11,7 +11,7 @@ use anyhow::Result;
 /// the verdict, the stages and the ranking.
 pub(super) fn run(a: &DiagnoseArgs) -> Result<()> {
     let i = &a.input;
-    let (identifier, m) = open_identifier(&i.bank, &i.measured, i.calibration.as_deref())?;
+    let (identifier, m) = open_identifier(&i.bank, &i.measured, i.calibration.as_deref(), i.speed)?;
     let sensors = i.sensors.as_deref();
     let id = identifier.identify(&m, sensors, Extras::NONE)?;
     eprintln!(

@@ -12,7 +12,7 @@ use std::path::Path;
 /// with `--report` the figures and the HTML report.
 pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
     let i = &a.input;
-    let (identifier, m) = open_identifier(&i.bank, &i.measured, i.calibration.as_deref())?;
+    let (identifier, m) = open_identifier(&i.bank, &i.measured, i.calibration.as_deref(), i.speed)?;
     let extras = if a.report {
         Extras {
             baselines: !a.no_baselines,
@@ -78,7 +78,7 @@ pub(super) fn report(id: &Identification, dir: &Path, truth: Option<&Truth>) -> 
 /// given).
 pub(super) fn compare(a: &CompareArgs) -> Result<()> {
     let i = &a.input;
-    let (identifier, m) = open_identifier(&i.bank, &i.measured, i.calibration.as_deref())?;
+    let (identifier, m) = open_identifier(&i.bank, &i.measured, i.calibration.as_deref(), i.speed)?;
     let truth = match &a.truth {
         Some(p) => {
             let text = super::read_text(p, super::MAX_SMALL_FILE_BYTES, "truth file")?;

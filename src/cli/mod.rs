@@ -14,6 +14,7 @@ mod bank;
 mod calibration;
 mod demo;
 mod diagnose;
+mod family;
 mod identify;
 mod progress;
 mod simulate;
@@ -21,7 +22,9 @@ mod synth;
 mod train;
 mod watch;
 
+use crate::bank::family::Family;
 use crate::bank::Bank;
+use crate::identify::family::Members;
 use crate::identify::{Identifier, Measurement};
 use crate::model::{Calibration, CheckedCalibration};
 use anyhow::{Context, Result};
@@ -147,33 +150,69 @@ fn create_output_folder(dir: &Path) -> Result<()> {
         .with_context(|| format!("cannot create output folder {}", dir.display()))
 }
 
-/// Opens a bank for identification and reads a measurement on its sample rate; the settings
-/// and uncertainty table come from `calibration` when given, else from the bank.
+/// Opens the bank a measurement is compared with and reads the measurement: for a family, the
+/// member at the pass's speed (the CSV's `# speed_km_per_h` line, or `speed` when it has
+/// none; never assumed). The settings and uncertainty table come from `calibration` when
+/// given, else from the bank.
 fn open_identifier(
     bank_dir: &Path,
     measured: &Path,
     calibration: Option<&Path>,
+    speed: Option<f64>,
 ) -> Result<(Identifier, Measurement)> {
-    let identifier = open_bank_identifier(bank_dir, calibration)?;
-    let m = read_measurement(&identifier, measured)?;
-    Ok((identifier, m))
+    let mut members = open_members(bank_dir, calibration)?;
+    let m = read_measurement(&mut members, measured, speed)?;
+    let k = members.member_for(m.speed_km_per_h.expect("read_measurement states it"))?;
+    Ok((members.take(k), m))
 }
 
-/// Opens a bank (a bank directory or a version directory) for identification, with the
-/// settings and uncertainty table of `calibration` when given, else the bank's.
-fn open_bank_identifier(bank_dir: &Path, calibration: Option<&Path>) -> Result<Identifier> {
-    let bank =
-        Bank::open(bank_dir).with_context(|| format!("cannot open bank {}", bank_dir.display()))?;
+/// Opens a bank or bank family for identification, with the settings of `calibration` when
+/// given.
+fn open_members(bank_dir: &Path, calibration: Option<&Path>) -> Result<Members> {
     let settings = match calibration {
-        Some(p) => load_calibration(Some(p))?.identification.clone(),
-        None => bank.metadata().calibration.identification.clone(),
+        Some(p) => Some(load_calibration(Some(p))?.identification.clone()),
+        None => None,
     };
-    Ok(Identifier::new(bank, settings)?)
+    Members::open(bank_dir, settings)
+        .with_context(|| format!("cannot open bank {}", bank_dir.display()))
 }
 
-/// Reads a measurement on the sample rate of the identifier's bank.
-fn read_measurement(identifier: &Identifier, path: &Path) -> Result<Measurement> {
-    let rate = identifier.bank().metadata().sensors[0].sample_rate_hz;
+/// Reads a measurement on the family's sample rate, with its speed stated (its line or
+/// `speed`) and checked against the family's band.
+fn read_measurement(members: &mut Members, path: &Path, speed: Option<f64>) -> Result<Measurement> {
     let text = read_text(path, MAX_MEASUREMENT_BYTES, "measurement")?;
-    Ok(Measurement::from_csv(path, &text, rate)?)
+    let mut m = Measurement::from_csv(path, &text, members.family().sample_rate_hz)?;
+    let v = m.pass_speed(speed)?;
+    m.speed_km_per_h = Some(v);
+    members
+        .family()
+        .member_for(v)
+        .with_context(|| format!("measurement {}", path.display()))?;
+    Ok(m)
+}
+
+/// Opens a bank, or the member of a bank family at `speed` (which a family needs; for a
+/// single bank it is checked against the bank's speed when given).
+fn open_bank_at(bank_dir: &Path, speed: Option<f64>) -> Result<Bank> {
+    let (family, single) = Family::open(bank_dir)
+        .with_context(|| format!("cannot open bank {}", bank_dir.display()))?;
+    let k = match speed {
+        Some(v) => family.member_for(v)?,
+        None if single.is_some() => 0,
+        None => anyhow::bail!(
+            "{} is a bank family ({}): say which member with --speed",
+            bank_dir.display(),
+            family.band.map(|b| b.to_string()).unwrap_or_default()
+        ),
+    };
+    match single {
+        Some(b) => Ok(b),
+        None => family.members[k].open().with_context(|| {
+            format!(
+                "cannot open the {} km/h member of bank family {}",
+                family.members[k].speed_km_per_h,
+                bank_dir.display()
+            )
+        }),
+    }
 }

@@ -2,7 +2,7 @@
 
 use super::args::TrainArgs;
 use super::{create_output_folder, write_file};
-use crate::bank;
+use crate::identify::family::Members;
 use crate::identify::{Identifier, Measurement};
 use crate::train::TrainResult;
 use anyhow::{Context, Result};
@@ -11,17 +11,8 @@ use std::path::{Path, PathBuf};
 /// Reads the recording and triggers, identifies every bogie, writes `train.csv`, `.json` and
 /// `.html` and prints the table.
 pub(super) fn run(a: &TrainArgs) -> Result<()> {
-    let b = bank::Bank::open(&a.bank)
-        .with_context(|| format!("cannot open bank {}", a.bank.display()))?;
-    crate::train::check_coverage(&b, &a.bank)?;
-    let cal = b
-        .metadata()
-        .calibration
-        .clone()
-        .check()
-        .context("the bank's stored calibration")?;
-    let identifier = Identifier::new(b, cal.identification.clone())?;
-    let result = identify_pass(&identifier, &a.recording, &a.triggers)?;
+    let mut members = super::open_members(&a.bank, None)?;
+    let result = identify_pass(&mut members, &a.recording, &a.triggers)?;
     create_output_folder(&a.out)?;
     let written = write_outputs(&result, &a.out)?;
     print!("{}", crate::report::train::table_text(&result));
@@ -33,6 +24,7 @@ pub(super) fn run(a: &TrainArgs) -> Result<()> {
         result.total_ms,
         result.total_ms / result.bogies.len().max(1) as f64
     );
+    println!("{}", crate::report::train::speeds_line(&result));
     println!("severity rule: {}", result.severity_rule);
     for w in &result.warnings {
         println!("warning: {w}");
@@ -46,26 +38,46 @@ pub(super) fn run(a: &TrainArgs) -> Result<()> {
     Ok(())
 }
 
-/// One train pass, a recording and its trigger file, against an open bank (which must cover
-/// a train: [`crate::train::check_coverage`] is the caller's).
+/// One train pass, a recording and its trigger file, against a bank or a bank family: each
+/// bogie's speed (from its trigger pair) picks the member it is compared with, which must
+/// cover a train ([`crate::train::check_coverage`]).
 pub(super) fn identify_pass(
-    identifier: &Identifier,
+    members: &mut Members,
     recording: &Path,
     triggers: &Path,
 ) -> Result<TrainResult> {
-    let meta = identifier.bank().metadata();
-    let cal = meta
-        .calibration
-        .clone()
-        .check()
-        .context("the bank's stored calibration")?;
-    let rate = meta.sensors[0].sample_rate_hz;
+    let rate = members.family().sample_rate_hz;
     let text = super::read_text(recording, super::MAX_MEASUREMENT_BYTES, "recording")?;
     let m = Measurement::from_csv(recording, &text, rate)?;
     let ttext = super::read_text(triggers, super::MAX_TRIGGER_BYTES, "trigger file")?;
     let times = crate::train::read_triggers(triggers, &ttext)?;
+    let cal = members
+        .any()?
+        .bank()
+        .metadata()
+        .calibration
+        .clone()
+        .check()
+        .context("the bank's stored calibration")?;
     let bogies = crate::train::bogies_from_triggers(&cal, triggers, &times)?;
-    Ok(crate::train::identify_train(identifier, &m, &bogies)?)
+    let mut picked = Vec::with_capacity(bogies.len());
+    for (b, bogie) in bogies.iter().enumerate() {
+        let k = members.member_for(bogie.speed_km_per_h).with_context(|| {
+            format!(
+                "{}: bogie {} (lines {} and {})",
+                triggers.display(),
+                b + 1,
+                2 * b + 2,
+                2 * b + 3
+            )
+        })?;
+        if !picked.contains(&k) {
+            crate::train::check_coverage(members.get(k).bank(), &members.family().members[k].dir)?;
+        }
+        picked.push(k);
+    }
+    let identifiers: Vec<&Identifier> = picked.iter().map(|&k| members.get(k)).collect();
+    Ok(crate::train::identify_train(&identifiers, &m, &bogies)?)
 }
 
 /// Writes `train.csv`, `train.json` and `train.html` into `out` (each atomically); their

@@ -19,8 +19,9 @@
 //! - **Clean stop.** SIGTERM or SIGINT ends the loop after the measurement in progress.
 
 use super::args::WatchArgs;
-use crate::bank::reader::resolve_version;
-use crate::identify::{Extras, Identifier};
+use crate::bank::family::Family;
+use crate::identify::family::Members;
+use crate::identify::Extras;
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -30,18 +31,35 @@ use std::time::{Duration, Instant};
 /// What marks a recording as a train pass: `NAME.csv` with `NAME` + this beside it.
 const TRIGGERS_SUFFIX: &str = ".triggers.csv";
 
-/// The open bank and the version it is.
+/// The open bank or family (members opened as passes need them) and what identifies its
+/// version ([`Family::key`]).
 struct Open {
-    version: PathBuf,
-    identifier: Identifier,
+    key: String,
+    members: Members,
+}
+
+impl Open {
+    /// The version in words, for the log: the bank's version directory, or the family.
+    fn name(&self) -> String {
+        let f = self.members.family();
+        match f.band {
+            Some(band) => format!("family {} ({band})", f.dir.display()),
+            None => f.members[0]
+                .current
+                .version
+                .file_name()
+                .unwrap_or_default()
+                .to_string_lossy()
+                .to_string(),
+        }
+    }
 }
 
 fn open(a: &WatchArgs) -> Result<Open> {
-    let version = resolve_version(&a.bank)?;
-    let identifier = super::open_bank_identifier(&version, a.calibration.as_deref())?;
+    let members = super::open_members(&a.bank, a.calibration.as_deref())?;
     Ok(Open {
-        version,
-        identifier,
+        key: members.family().key.clone(),
+        members,
     })
 }
 
@@ -69,15 +87,14 @@ fn waiting(inbox: &Path) -> Result<Vec<PathBuf>> {
 /// Identifies one measurement (or, with `triggers`, one train pass) and writes its result;
 /// the verdict line.
 fn identify_one(
-    open: &Open,
+    open: &mut Open,
     path: &Path,
     triggers: Option<&Path>,
     a: &WatchArgs,
     out: &Path,
 ) -> Result<String> {
     if let Some(triggers) = triggers {
-        crate::train::check_coverage(open.identifier.bank(), &a.bank)?;
-        let result = super::train::identify_pass(&open.identifier, path, triggers)?;
+        let result = super::train::identify_pass(&mut open.members, path, triggers)?;
         std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
         super::train::write_outputs(&result, out)?;
         let flats: Vec<String> = result
@@ -96,13 +113,22 @@ fn identify_one(
             }
         ));
     }
-    let m = super::read_measurement(&open.identifier, path)?;
+    let m = super::read_measurement(&mut open.members, path, None)?;
+    let k = open
+        .members
+        .member_for(m.speed_km_per_h.expect("read_measurement states it"))?;
     let id = open
-        .identifier
+        .members
+        .get(k)
         .identify(&m, a.sensors.as_deref(), Extras::NONE)?;
     crate::report::identify::write_identification_json(&id, out)
         .with_context(|| format!("cannot write the result in {}", out.display()))?;
-    Ok(id.summary.clone())
+    Ok(format!(
+        "{} km/h against the {} km/h bank: {}",
+        m.speed_km_per_h.unwrap_or(f64::NAN),
+        id.speed.bank_km_per_h,
+        id.summary
+    ))
 }
 
 /// Moves `path` into `dir` (same file system: a rename).
@@ -137,7 +163,7 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
         "{} watching {} with bank {} (poll {} ms)",
         stamp(),
         a.inbox.display(),
-        current.version.display(),
+        current.name(),
         a.poll_ms
     );
     let mut seen = 0usize;
@@ -154,17 +180,17 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
                 break;
             }
             // Between measurements: follow a regenerated bank.
-            match resolve_version(&a.bank) {
-                Ok(v) if v != current.version => match open(a) {
+            match Family::current_key(&a.bank) {
+                Ok(k) if k != current.key => match open(a) {
                     Ok(o) => {
-                        println!("{} bank switched to {}", stamp(), o.version.display());
+                        println!("{} bank switched to {}", stamp(), o.name());
                         current = o;
                     }
                     Err(e) => println!(
                         "{} cannot open the new bank {} ({e:#}); keeping {}",
                         stamp(),
-                        v.display(),
-                        current.version.display()
+                        a.bank.display(),
+                        current.name()
                     ),
                 },
                 Ok(_) => {}
@@ -179,7 +205,13 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
             let triggers = path.with_file_name(format!("{stem}{TRIGGERS_SUFFIX}"));
             let triggers = triggers.is_file().then_some(triggers);
             let t = Instant::now();
-            let result = identify_one(&current, &path, triggers.as_deref(), a, &a.out.join(&stem));
+            let result = identify_one(
+                &mut current,
+                &path,
+                triggers.as_deref(),
+                a,
+                &a.out.join(&stem),
+            );
             let ms = t.elapsed().as_secs_f64() * 1e3;
             seen += 1;
             match result {
@@ -191,11 +223,7 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
                     println!(
                         "{} {name} ok {ms:.1} ms [{}] {verdict}",
                         stamp(),
-                        current
-                            .version
-                            .file_name()
-                            .unwrap_or_default()
-                            .to_string_lossy()
+                        current.name()
                     );
                 }
                 Err(e) => {

@@ -14,7 +14,9 @@
 //! A broken sensor is simply absent, or left out with `--sensors`.
 
 use super::IdentifyError;
+use crate::bank::family::SPEED_TOLERANCE;
 use crate::bank::schema::SensorAxis;
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 /// The most sensor columns a measurement may have (a wayside site has a handful).
@@ -247,6 +249,85 @@ impl Measurement {
         })
     }
 
+    /// The pass's train speed (km/h): its `# speed_km_per_h` line, or `given` (a `--speed`
+    /// flag) when it has none; both must agree within 0.1 %, and neither is an error: the
+    /// speed picks the bank the pass is compared with and is never assumed.
+    pub fn pass_speed(&self, given: Option<f64>) -> Result<f64, IdentifyError> {
+        match (self.speed_km_per_h, given) {
+            (Some(line), Some(flag)) if (line / flag - 1.0).abs() > 1e-3 => Err(bad(
+                &self.path,
+                1,
+                format!("its speed line says {line} km/h, --speed says {flag} km/h"),
+            )),
+            (Some(v), _) | (None, Some(v)) if !(1.0..=500.0).contains(&v) => Err(bad(
+                &self.path,
+                1,
+                format!("speed {v} km/h is not a train speed (1 to 500 km/h)"),
+            )),
+            (Some(v), _) | (None, Some(v)) => Ok(v),
+            (None, None) => Err(bad(
+                &self.path,
+                1,
+                "no `# speed_km_per_h = …` line and no --speed: the pass's speed picks the bank it is compared with, and is never assumed".into(),
+            )),
+        }
+    }
+
+    /// The pass on a bank's time axis: itself when it states no speed or the bank's, else
+    /// [`Measurement::at_speed`] when within [`SPEED_TOLERANCE`] of the bank's speed; farther,
+    /// an error (a bank family has a member nearer).
+    pub fn at_bank_speed(&self, bank_km_per_h: f64) -> Result<Cow<'_, Measurement>, IdentifyError> {
+        let v = match self.speed_km_per_h {
+            Some(v) if (v - bank_km_per_h).abs() > 1e-9 => v,
+            _ => return Ok(Cow::Borrowed(self)),
+        };
+        let off = v / bank_km_per_h - 1.0;
+        if off.abs() > SPEED_TOLERANCE + 1e-12 {
+            return Err(bad(
+                &self.path,
+                1,
+                format!(
+                    "speed {v} km/h differs from the bank's {bank_km_per_h} km/h by {:+.1} %, more than the {:.0} % a bank covers (measured, docs/bank.md); use a bank family over the speeds you need",
+                    off * 100.0,
+                    SPEED_TOLERANCE * 100.0
+                ),
+            ));
+        }
+        Ok(Cow::Owned(self.at_speed(v, bank_km_per_h)))
+    }
+
+    /// The pass as it would have been recorded at `bank_km_per_h` instead of `pass_km_per_h`:
+    /// the wheel reaches each place along the rail at file time × v_pass / v_bank (the laser
+    /// trigger's time scaled alike), resampled on the same interval by linear interpolation.
+    /// Only the kinematics are scaled: forces that depend on speed (impact heights) are not.
+    pub fn at_speed(&self, pass_km_per_h: f64, bank_km_per_h: f64) -> Measurement {
+        let r = pass_km_per_h / bank_km_per_h;
+        let n = self.len();
+        let span = (n.saturating_sub(1)) as f64 * self.dt_s * r;
+        let samples = (span / self.dt_s + 1e-9).floor() as usize + 1;
+        let t0 = self.t0_s * r;
+        let values_kn = (0..self.sensors.len())
+            .map(|s| {
+                (0..samples)
+                    .map(|k| {
+                        let t_file = (t0 + k as f64 * self.dt_s) / r;
+                        self.at(s, t_file)
+                            .unwrap_or(self.values_kn[s][if k == 0 { 0 } else { n - 1 }])
+                    })
+                    .collect()
+            })
+            .collect();
+        Measurement {
+            path: self.path.clone(),
+            t0_s: t0,
+            dt_s: self.dt_s,
+            sensors: self.sensors.clone(),
+            values_kn,
+            laser_trigger_s: self.laser_trigger_s.map(|t| t * r),
+            speed_km_per_h: Some(bank_km_per_h),
+        }
+    }
+
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.values_kn.first().map_or(0, Vec::len)
@@ -335,4 +416,85 @@ pub fn cross_correlate(
         }
     }
     best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ramp(speed: Option<f64>) -> Measurement {
+        // A force that grows with time: 1 kN per ms, from t = 0.1 s, 2.5 kHz.
+        let dt = 4e-4;
+        Measurement {
+            path: PathBuf::from("p.csv"),
+            t0_s: 0.1,
+            dt_s: dt,
+            sensors: vec!["rps1".into()],
+            values_kn: vec![(0..1000).map(|k| (0.1 + k as f64 * dt) * 1e3).collect()],
+            laser_trigger_s: Some(0.2),
+            speed_km_per_h: speed,
+        }
+    }
+
+    #[test]
+    fn a_pass_is_put_on_the_bank_speed_time_axis_exactly_for_a_linear_signal() {
+        // At 49 km/h the wheel reaches a place at time t; at 50 km/h at t·49/50. The scaled
+        // series at bank time t' is the pass's at t'·50/49 (linear interpolation is exact on
+        // a ramp, so to rounding: 1e-9 kN).
+        let m = ramp(Some(49.0));
+        let s = m.at_bank_speed(50.0).unwrap();
+        let r = 49.0 / 50.0;
+        assert_eq!(s.dt_s.to_bits(), m.dt_s.to_bits());
+        assert!((s.t0_s - 0.1 * r).abs() < 1e-15);
+        assert!((s.laser_trigger_s.unwrap() - 0.2 * r).abs() < 1e-15);
+        assert_eq!(s.speed_km_per_h, Some(50.0));
+        // The record spans the same places: (n − 1)·dt·r long.
+        assert_eq!(s.len(), ((999.0 * r) as usize) + 1);
+        for k in 0..s.len() {
+            let t_bank = s.t0_s + k as f64 * s.dt_s;
+            let want = t_bank / r * 1e3;
+            assert!((s.values_kn[0][k] - want).abs() < 1e-9, "sample {k}");
+        }
+        // The bank's own speed, or none: the pass itself.
+        assert!(matches!(
+            ramp(Some(50.0)).at_bank_speed(50.0).unwrap(),
+            Cow::Borrowed(_)
+        ));
+        assert!(matches!(
+            ramp(None).at_bank_speed(50.0).unwrap(),
+            Cow::Borrowed(_)
+        ));
+        // Beyond 3 %: refused, saying by how much.
+        let e = ramp(Some(52.0))
+            .at_bank_speed(50.0)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("p.csv, line 1: speed 52 km/h differs from the bank's 50 km/h by +4.0 %"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn the_pass_speed_comes_from_its_line_or_the_flag_and_is_never_assumed() {
+        let speed = |m: Measurement, flag| m.pass_speed(flag).unwrap().to_bits();
+        assert_eq!(speed(ramp(Some(48.0)), None), 48f64.to_bits());
+        assert_eq!(speed(ramp(None), Some(47.0)), 47f64.to_bits());
+        assert_eq!(speed(ramp(Some(48.0)), Some(48.0)), 48f64.to_bits());
+        let e = ramp(Some(48.0))
+            .pass_speed(Some(50.0))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("its speed line says 48 km/h, --speed says 50 km/h"),
+            "{e}"
+        );
+        let e = ramp(None).pass_speed(None).unwrap_err().to_string();
+        assert!(
+            e.contains("no `# speed_km_per_h = …` line and no --speed"),
+            "{e}"
+        );
+        let e = ramp(Some(900.0)).pass_speed(None).unwrap_err().to_string();
+        assert!(e.contains("900 km/h is not a train speed"), "{e}");
+    }
 }

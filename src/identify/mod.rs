@@ -12,6 +12,7 @@ pub mod coverage;
 pub mod entropy;
 pub mod envelope;
 pub mod falsify;
+pub mod family;
 mod flat_free;
 pub mod measurement;
 pub mod pip;
@@ -35,7 +36,7 @@ use pip::{perceptually_important_points, PipDistance};
 use ranges::{instance, population_ranges, ranges_of};
 use result::{
     Alignment, CandidatePoint, EntropyCurve, Falsification, InstanceParams, MeasuredSeries,
-    ParamRanges, RandomSubsets,
+    ParamRanges, RandomSubsets, SpeedUse,
 };
 pub use result::{FlatFreeCheck, WheelRanges};
 use severity::summarise;
@@ -237,6 +238,8 @@ impl Identifier {
         let meta = self.bank.metadata();
         let cal = &meta.calibration;
         let s = &self.settings;
+        // A pass at another speed than the bank's is put on the bank's time axis first.
+        let m = &*m.at_bank_speed(cal.run.speed_km_per_h)?;
         let distance = PipDistance::parse(&s.pip_distance).ok_or_else(|| {
             IdentifyError::Invalid(format!("unknown PIP distance `{}`", s.pip_distance))
         })?;
@@ -282,19 +285,6 @@ impl Identifier {
                 message: "no usable sensor".into(),
             });
         }
-        if let Some(v) = m.speed_km_per_h {
-            if (v / cal.run.speed_km_per_h - 1.0).abs() > 0.02 {
-                return Err(IdentifyError::Measurement {
-                    path: m.path.clone(),
-                    line: 1,
-                    message: format!(
-                        "speed {v} km/h differs from the bank's {} km/h by more than 2 %",
-                        cal.run.speed_km_per_h
-                    ),
-                });
-            }
-        }
-
         // Alignment.
         let speed = cal.run.speed_km_per_h / 3.6;
         let alignment = match m.laser_trigger_s {
@@ -654,6 +644,10 @@ impl Identifier {
         let (summary, hint) = summarise(&cms_ranges, cms.len(), n, method_points.len(), s);
         Ok(Identification {
             measurement: m.path.display().to_string(),
+            speed: SpeedUse {
+                pass_km_per_h: m.speed_km_per_h,
+                bank_km_per_h: meta.calibration.run.speed_km_per_h,
+            },
             bank_id: meta.bank_id.clone(),
             bank_instances: n,
             population,

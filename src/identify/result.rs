@@ -157,11 +157,25 @@ pub struct RandomSubsets {
     pub seed: u64,
 }
 
+/// The speed a pass was identified at.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct SpeedUse {
+    /// The pass's speed (km/h), from its speed line or `--speed` (`None`: not stated; the
+    /// library then compares it as if at the bank's speed).
+    pub pass_km_per_h: Option<f64>,
+    /// The speed of the bank (the family member) it was compared with (km/h); a pass at
+    /// another speed was put on the bank's time axis (times × pass / bank).
+    pub bank_km_per_h: f64,
+}
+
 /// Everything one identification found.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Identification {
     /// The measurement file.
     pub measurement: String,
+    /// The pass's speed and the bank's (absent in results written before it was stated).
+    #[serde(default)]
+    pub speed: SpeedUse,
     /// Bank identity and size.
     pub bank_id: String,
     /// Instances in the bank.

@@ -6,13 +6,21 @@ use crate::train::TrainResult;
 
 /// The table as CSV.
 pub fn table_csv(r: &TrainResult) -> String {
-    let mut s = String::from("car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity\n");
+    let mut s = String::from(
+        "car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity,speed_km_per_h,bank_speed_km_per_h\n",
+    );
     for w in &r.wheels {
         let (lo, hi) = w.l0_mm.map_or((String::new(), String::new()), |[a, b]| {
             (format!("{a:.1}"), format!("{b:.1}"))
         });
+        let (v, vb) = r
+            .bogies
+            .get(w.bogie.wrapping_sub(1))
+            .map_or((f64::NAN, f64::NAN), |b| {
+                (b.speed_km_per_h, b.bank_speed_km_per_h)
+            });
         s += &format!(
-            "{},{},{},{},{lo},{hi},{},{}\n",
+            "{},{},{},{},{lo},{hi},{},{},{v:.2},{vb}\n",
             w.car,
             w.bogie,
             w.wheel.name(),
@@ -22,6 +30,36 @@ pub fn table_csv(r: &TrainResult) -> String {
         );
     }
     s
+}
+
+/// The bogies' speeds (from their triggers) and the banks they were compared with, grouped
+/// by bank: `speeds: bogies 1–4 at 44.1–45.2 km/h against the 44 km/h bank; …`.
+pub fn speeds_line(r: &TrainResult) -> String {
+    let mut groups: Vec<(f64, Vec<&crate::train::BogieResult>)> = Vec::new();
+    for b in &r.bogies {
+        match groups
+            .iter_mut()
+            .find(|g| g.0.to_bits() == b.bank_speed_km_per_h.to_bits())
+        {
+            Some(g) => g.1.push(b),
+            None => groups.push((b.bank_speed_km_per_h, vec![b])),
+        }
+    }
+    let parts: Vec<String> = groups
+        .iter()
+        .map(|(vb, bs)| {
+            let (lo, hi) = bs.iter().fold((f64::MAX, f64::MIN), |(l, h), b| {
+                (l.min(b.speed_km_per_h), h.max(b.speed_km_per_h))
+            });
+            let names: Vec<String> = bs.iter().map(|b| b.bogie.to_string()).collect();
+            format!(
+                "bogie{} {} at {lo:.1}–{hi:.1} km/h against the {vb} km/h bank",
+                if bs.len() == 1 { "" } else { "s" },
+                names.join(", ")
+            )
+        })
+        .collect();
+    format!("speeds: {}", parts.join("; "))
 }
 
 /// The table for people.
@@ -77,7 +115,8 @@ pub fn table_html(r: &TrainResult) -> String {
         );
     }
     h += &format!(
-        "</tbody></table>\n<p>Severity rule: {}.</p>\n",
+        "</tbody></table>\n<p>{}.</p>\n<p>Severity rule: {}.</p>\n",
+        esc(&speeds_line(r)),
         esc(&r.severity_rule)
     );
     for w in &r.warnings {

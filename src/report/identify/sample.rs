@@ -147,6 +147,10 @@ pub fn identification() -> Identification {
     };
     Identification {
         measurement: "measurements/2019-03-14_train7_axle3.parquet".into(),
+        speed: crate::identify::result::SpeedUse {
+            pass_km_per_h: Some(49.6),
+            bank_km_per_h: 50.0,
+        },
         bank_id: "bank-50000-4b1e".into(),
         bank_instances: 50_000,
         population,

@@ -1,0 +1,146 @@
+//! `wheelflat bank info|verify|prune|audit` on a bank family: each member in turn, through the
+//! version `family.json` pins.
+
+use crate::bank::family::{Family, FAMILY_FILE};
+use crate::bank::info::BankSize;
+use anyhow::{Context, Result};
+use std::path::Path;
+
+/// Whether `dir` is a bank family.
+pub(super) fn is_family(dir: &Path) -> bool {
+    dir.join(FAMILY_FILE).is_file()
+}
+
+fn open(dir: &Path) -> Result<Family> {
+    Ok(Family::open(dir)
+        .with_context(|| format!("cannot open bank family {}", dir.display()))?
+        .0)
+}
+
+fn band(f: &Family) -> String {
+    f.band.map(|b| b.to_string()).unwrap_or_default()
+}
+
+/// `bank info` of a family: the band, then one line per member.
+pub(super) fn info(dir: &Path) -> Result<()> {
+    let f = open(dir)?;
+    println!("bank family     {}", dir.display());
+    println!("band            {} ({} members)", band(&f), f.members.len());
+    println!("sample rate     {} Hz", f.sample_rate_hz);
+    println!(
+        "members         (a member's details: wheelflat bank info {}/speed-…)",
+        dir.display()
+    );
+    for m in &f.members {
+        let b = m
+            .open()
+            .with_context(|| format!("member {}", m.dir.display()))?;
+        let size = BankSize::of(&b);
+        println!(
+            "  {:>6.1} km/h  {}  {} instances, {:.1} MB, bank id {}",
+            m.speed_km_per_h,
+            m.current
+                .version
+                .strip_prefix(dir)
+                .unwrap_or(&m.current.version)
+                .display(),
+            size.instances,
+            size.megabytes(),
+            b.metadata().bank_id
+        );
+    }
+    Ok(())
+}
+
+/// `bank verify` of a family: every member's pinned version in full.
+pub(super) fn verify(dir: &Path) -> Result<()> {
+    let f = open(dir)?;
+    let mut bad = 0;
+    for m in &f.members {
+        // The pin and the member's speed first, then every file against its manifest.
+        let checked = m
+            .open()
+            .map_err(anyhow::Error::from)
+            .and_then(|_| crate::bank::verify(&m.current.version).map_err(anyhow::Error::from));
+        match checked {
+            Ok((manifest, problems)) if problems.is_empty() => println!(
+                "  {:>6.1} km/h: {} files, {} instances, checksums match",
+                m.speed_km_per_h,
+                manifest.files.len(),
+                manifest.instances
+            ),
+            Ok((_, problems)) => {
+                bad += 1;
+                for p in &problems {
+                    eprintln!("{}: {}", p.path.display(), p.message);
+                }
+            }
+            Err(e) => {
+                bad += 1;
+                eprintln!("{}: {e:#}", m.dir.display());
+            }
+        }
+    }
+    if bad > 0 {
+        anyhow::bail!(
+            "bank family {} failed verification: {bad} of {} members bad",
+            dir.display(),
+            f.members.len()
+        );
+    }
+    println!(
+        "bank family {} ({}): {} members verified",
+        dir.display(),
+        band(&f),
+        f.members.len()
+    );
+    Ok(())
+}
+
+/// `bank prune` of a family: every member, keeping the versions `family.json` pins.
+pub(super) fn prune(dir: &Path, keep: usize) -> Result<()> {
+    let f = open(dir)?;
+    for m in &f.members {
+        println!("member {} km/h:", m.speed_km_per_h);
+        let p = crate::bank::prune::prune_keeping(
+            &m.dir,
+            keep,
+            std::slice::from_ref(&m.current.version),
+        )
+        .with_context(|| format!("cannot prune {}", m.dir.display()))?;
+        super::bank::print_pruned(&m.dir, &p);
+    }
+    Ok(())
+}
+
+/// `bank audit` of a family: `sample` instances of every member (with `calibration`, that
+/// calibration at each member's speed).
+pub(super) fn audit(dir: &Path, sample: usize, calibration: Option<&Path>) -> Result<()> {
+    let f = open(dir)?;
+    let mut drifted = 0;
+    for m in &f.members {
+        let b = m
+            .open()
+            .with_context(|| format!("member {}", m.dir.display()))?;
+        let against = match calibration {
+            Some(p) => Some(crate::bank::family::at_speed(
+                &super::load_calibration(Some(p))?,
+                m.speed_km_per_h,
+            )?),
+            None => None,
+        };
+        if let Err(e) = super::bank::audit_bank(&b, &m.dir, against, calibration, sample) {
+            eprintln!("{e:#}");
+            drifted += 1;
+        }
+    }
+    if drifted > 0 {
+        anyhow::bail!(
+            "bank family {}: {drifted} of {} members drifted",
+            dir.display(),
+            f.members.len()
+        );
+    }
+    println!("bank family {}: no member drifted", dir.display());
+    Ok(())
+}

@@ -1,0 +1,100 @@
+//! The identifiers of a bank family's members ([`crate::bank::family`]), each opened the first
+//! time a pass at its speed needs it and kept open after (a resident `watch`, a train whose
+//! bogies run at several speeds).
+
+use super::{Identifier, IdentifyError};
+use crate::bank::family::Family;
+use crate::model::calibration::IdentificationParams;
+use std::path::Path;
+
+/// A family (or a single bank) and the identifiers opened on its members so far.
+pub struct Members {
+    family: Family,
+    /// Settings for every member (`None`: each member's stored ones).
+    settings: Option<IdentificationParams>,
+    open: Vec<Option<Identifier>>,
+}
+
+impl Members {
+    /// Opens `dir` (a family or a single bank; a single bank's identifier is built at once).
+    pub fn open(
+        dir: &Path,
+        settings: Option<IdentificationParams>,
+    ) -> Result<Members, IdentifyError> {
+        let (family, single) = Family::open(dir)?;
+        let mut open: Vec<Option<Identifier>> = family.members.iter().map(|_| None).collect();
+        if let Some(bank) = single {
+            let s = settings
+                .clone()
+                .unwrap_or_else(|| bank.metadata().calibration.identification.clone());
+            open[0] = Some(Identifier::new(bank, s)?);
+        }
+        Ok(Members {
+            family,
+            settings,
+            open,
+        })
+    }
+
+    /// The family.
+    pub fn family(&self) -> &Family {
+        &self.family
+    }
+
+    /// The member a pass at `speed_km_per_h` is compared with, opened if it was not yet;
+    /// its index for [`Members::get`]. A speed no member covers is an error naming the band.
+    pub fn member_for(&mut self, speed_km_per_h: f64) -> Result<usize, IdentifyError> {
+        let k = self
+            .family
+            .member_for(speed_km_per_h)
+            .map_err(|e| IdentifyError::Invalid(e.to_string()))?;
+        self.ensure(k)?;
+        Ok(k)
+    }
+
+    /// Any member's identifier (one already open, else the middle member, opened): for what
+    /// every member shares (sample rate, sensors, vehicle).
+    pub fn any(&mut self) -> Result<&Identifier, IdentifyError> {
+        let k = match self.open.iter().position(Option::is_some) {
+            Some(k) => k,
+            None => {
+                let k = self.open.len() / 2;
+                self.ensure(k)?;
+                k
+            }
+        };
+        Ok(self.get(k))
+    }
+
+    /// The identifier of an opened member.
+    ///
+    /// # Panics
+    /// When member `k` was not opened by [`Members::member_for`] or [`Members::any`].
+    pub fn get(&self, k: usize) -> &Identifier {
+        self.open[k]
+            .as_ref()
+            .expect("a member is opened by member_for before it is used")
+    }
+
+    /// Takes the identifier of an opened member out (for one-shot commands).
+    ///
+    /// # Panics
+    /// As [`Members::get`].
+    pub fn take(mut self, k: usize) -> Identifier {
+        self.open[k]
+            .take()
+            .expect("a member is opened by member_for before it is used")
+    }
+
+    fn ensure(&mut self, k: usize) -> Result<(), IdentifyError> {
+        if self.open[k].is_none() {
+            let bank = self.family.members[k].open()?;
+            let s = self
+                .settings
+                .clone()
+                .unwrap_or_else(|| bank.metadata().calibration.identification.clone());
+            self.open[k] = Some(Identifier::new(bank, s)?);
+        }
+        Ok(())
+    }
+}
