@@ -375,6 +375,29 @@ fn the_commands_take_the_speed_from_the_pass_and_name_the_band_when_none_fits() 
         );
     }
 
+    // diagnose: the pass between members, on the member's time axis, shows no model gap.
+    let out = wheelflat()
+        .args(["diagnose", "--no-local-bank", "--bank"])
+        .arg(fam)
+        .arg("--measured")
+        .arg(&at49)
+        .arg("--out")
+        .arg(tmp.path().join("d"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    println!("{text}");
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        text.contains("speed: pass 49.2 km/h, compared with the 50 km/h bank"),
+        "{text}"
+    );
+    assert!(text.contains("no missing effect found"), "{text}");
+
     // watch on the family: each pass against the member at its speed, one outside the band
     // and one without a speed in failed/ with the reason.
     let inbox = tmp.path().join("inbox");

@@ -12,6 +12,13 @@ use anyhow::Result;
 pub(super) fn run(a: &DiagnoseArgs) -> Result<()> {
     let i = &a.input;
     let (identifier, m) = open_identifier(&i.bank, &i.measured, i.calibration.as_deref(), i.speed)?;
+    // The fits re-simulate at the bank's speed: they see the pass on the bank's time axis.
+    let speed = crate::identify::result::SpeedUse {
+        pass_km_per_h: m.speed_km_per_h,
+        bank_km_per_h: identifier.bank().metadata().calibration.run.speed_km_per_h,
+    };
+    let m = m.at_bank_speed(speed.bank_km_per_h)?.into_owned();
+    println!("{}", crate::report::tables::speed_line(&speed));
     let sensors = i.sensors.as_deref();
     let id = identifier.identify(&m, sensors, Extras::NONE)?;
     eprintln!(

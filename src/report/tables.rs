@@ -84,18 +84,8 @@ pub fn comparison_table(id: &Identification, truth: Option<&Truth>) -> String {
 /// and comparison points, and the timings.
 pub fn identification_text(id: &Identification) -> String {
     let mut s = format!("{}\n{}\n", id.summary, id.maintenance_hint);
-    s += &match id.speed.pass_km_per_h {
-        Some(v) if (v - id.speed.bank_km_per_h).abs() > 1e-9 => format!(
-            "speed: pass {v} km/h, compared with the {} km/h bank (its time axis scaled by {:.4})\n",
-            id.speed.bank_km_per_h,
-            v / id.speed.bank_km_per_h
-        ),
-        Some(v) => format!("speed: pass {v} km/h, compared with the {v} km/h bank\n"),
-        None => format!(
-            "speed: not stated; compared as if at the bank's {} km/h\n",
-            id.speed.bank_km_per_h
-        ),
-    };
+    s += &speed_line(&id.speed);
+    s.push('\n');
     s += &format!(
         "alignment: {} (bank time = file time {:+.4} s{}); {} EIP of {} PIPs{}; per-point probability {:.5}\n",
         id.alignment.method,
@@ -117,6 +107,23 @@ pub fn identification_text(id: &Identification) -> String {
         .collect();
     s += &format!("timings: {}\n", t.join(", "));
     s
+}
+
+/// Which bank a pass was compared with, and at what speed: `speed: pass 49.2 km/h, compared
+/// with the 50 km/h bank (its time axis scaled by 0.9840)`.
+pub fn speed_line(s: &crate::identify::result::SpeedUse) -> String {
+    match s.pass_km_per_h {
+        Some(v) if (v - s.bank_km_per_h).abs() > 1e-9 => format!(
+            "speed: pass {v} km/h, compared with the {} km/h bank (its time axis scaled by {:.4})",
+            s.bank_km_per_h,
+            v / s.bank_km_per_h
+        ),
+        Some(v) => format!("speed: pass {v} km/h, compared with the {v} km/h bank"),
+        None => format!(
+            "speed: not stated; compared as if at the bank's {} km/h",
+            s.bank_km_per_h
+        ),
+    }
 }
 
 /// The verdict of an instance against a measurement, with its points, falsifying ones first.
