@@ -70,10 +70,11 @@ fn generate_family(
 ) -> Result<()> {
     let started = Instant::now();
     let speeds = band.speeds();
+    let members = |n: usize| format!("{n} member{}", if n == 1 { "" } else { "s" });
     println!(
-        "bank family {}: {} members, {band}",
+        "bank family {}: {}, {band}",
         a.out.display(),
-        speeds.len()
+        members(speeds.len())
     );
     let progress = Progress::new().with_terminal();
     let announce = |k: usize, n: usize, v: f64| {
@@ -90,8 +91,8 @@ fn generate_family(
     let secs = started.elapsed().as_secs_f64();
     if outcome.manifest_written {
         println!(
-            "bank family complete: {} members ({band}) in {secs:.1} s; {} pins each member's version",
-            speeds.len(),
+            "bank family complete: {} ({band}) in {secs:.1} s; {} pins each member's version",
+            members(speeds.len()),
             a.out.join(FAMILY_FILE).display()
         );
     } else {
