@@ -4,6 +4,7 @@
 mod common;
 
 use common::{narrow_calibration, options, small_calibration, wheelflat};
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use wheelflat::bank::family::{
@@ -297,55 +298,61 @@ fn write_pass(dir: &Path, name: &str, cal: &CheckedCalibration, speed: f64, line
     path
 }
 
+/// Runs wheelflat with `args`: whether it succeeded, and its standard output then error.
+fn cli(args: &[&dyn AsRef<OsStr>]) -> (bool, String) {
+    let out = wheelflat().args(args).output().unwrap();
+    (
+        out.status.success(),
+        format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        ),
+    )
+}
+
 #[test]
 fn the_commands_take_the_speed_from_the_pass_and_name_the_band_when_none_fits() {
     let (fam, cal) = narrow_family();
     let tmp = tempfile::tempdir().unwrap();
     let at49 = write_pass(tmp.path(), "at49.csv", cal, 49.2, true);
-    let out = wheelflat()
-        .args(["identify", "--bank"])
-        .arg(fam)
-        .arg("--measured")
-        .arg(&at49)
-        .arg("--out")
-        .arg(tmp.path().join("r"))
-        .output()
-        .unwrap();
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
+    let (x, r, d, w) = (
+        tmp.path().join("x"),
+        tmp.path().join("r"),
+        tmp.path().join("d"),
+        tmp.path().join("w"),
     );
+    let (ok, text) = cli(&[
+        &"identify",
+        &"--bank",
+        fam,
+        &"--measured",
+        &at49,
+        &"--out",
+        &r,
+    ]);
+    assert!(ok, "{text}");
     assert!(
         text.contains("speed: pass 49.2 km/h, compared with the 50 km/h bank"),
         "{text}"
     );
-    let json = std::fs::read_to_string(tmp.path().join("r/identification.json")).unwrap();
+    let json = std::fs::read_to_string(r.join("identification.json")).unwrap();
     assert!(
         json.contains("\"pass_km_per_h\": 49.2"),
         "speed in the JSON"
     );
 
-    let run = |args: &[&str], csv: &Path| {
-        let out = wheelflat()
-            .args(args)
-            .arg("--bank")
-            .arg(fam)
-            .arg("--measured")
-            .arg(csv)
-            .arg("--out")
-            .arg(tmp.path().join("x"))
-            .output()
-            .unwrap();
-        (
-            out.status.success(),
-            format!(
-                "{}{}",
-                String::from_utf8_lossy(&out.stdout),
-                String::from_utf8_lossy(&out.stderr)
-            ),
-        )
+    let run = |cmd: &[&str], csv: &Path| {
+        let mut args: Vec<&dyn AsRef<OsStr>> = cmd.iter().map(|a| a as &dyn AsRef<OsStr>).collect();
+        args.extend([
+            &"--bank" as &dyn AsRef<OsStr>,
+            fam,
+            &"--measured",
+            &csv,
+            &"--out",
+            &x,
+        ]);
+        cli(&args)
     };
     // No speed line: an error, unless --speed says it.
     let bare = write_pass(tmp.path(), "bare.csv", cal, 48.0, false);
@@ -376,22 +383,18 @@ fn the_commands_take_the_speed_from_the_pass_and_name_the_band_when_none_fits() 
     }
 
     // diagnose: the pass between members, on the member's time axis, shows no model gap.
-    let out = wheelflat()
-        .args(["diagnose", "--no-local-bank", "--bank"])
-        .arg(fam)
-        .arg("--measured")
-        .arg(&at49)
-        .arg("--out")
-        .arg(tmp.path().join("d"))
-        .output()
-        .unwrap();
-    let text = String::from_utf8_lossy(&out.stdout);
+    let (ok, text) = cli(&[
+        &"diagnose",
+        &"--no-local-bank",
+        &"--bank",
+        fam,
+        &"--measured",
+        &at49,
+        &"--out",
+        &d,
+    ]);
     println!("{text}");
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(ok, "{text}");
     assert!(
         text.contains("speed: pass 49.2 km/h, compared with the 50 km/h bank"),
         "{text}"
@@ -405,17 +408,10 @@ fn the_commands_take_the_speed_from_the_pass_and_name_the_band_when_none_fits() 
     for (name, from) in [("a.csv", &at49), ("b.csv", &fast), ("c.csv", &bare)] {
         std::fs::copy(from, inbox.join(name)).unwrap();
     }
-    let out = wheelflat()
-        .args(["watch", "--once", "--bank"])
-        .arg(fam)
-        .arg("--inbox")
-        .arg(&inbox)
-        .arg("--out")
-        .arg(tmp.path().join("w"))
-        .output()
-        .unwrap();
-    let log = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{log}");
+    let (ok, log) = cli(&[
+        &"watch", &"--once", &"--bank", fam, &"--inbox", &inbox, &"--out", &w,
+    ]);
+    assert!(ok, "{log}");
     assert!(log.contains("family"), "{log}");
     assert!(
         log.contains("a.csv ok") && log.contains("49.2 km/h against the 50 km/h bank"),
@@ -433,29 +429,21 @@ fn the_commands_take_the_speed_from_the_pass_and_name_the_band_when_none_fits() 
 
     // info and verify on the family.
     for (cmd, says) in [("info", "bank family"), ("verify", "2 members verified")] {
-        let out = wheelflat().args(["bank", cmd]).arg(fam).output().unwrap();
-        let text = String::from_utf8_lossy(&out.stdout);
-        assert!(
-            out.status.success(),
-            "{cmd}: {text}{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        let (ok, text) = cli(&[&"bank", &cmd, fam]);
+        assert!(ok, "{cmd}: {text}");
         assert!(text.contains(says), "{cmd}: {text}");
     }
-    let out = wheelflat()
-        .args([
-            "bank",
-            "generate",
-            "--speeds",
-            "30:80:2",
-            "--instances",
-            "10",
-            "--out",
-        ])
-        .arg(tmp.path().join("b"))
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success());
+    let b = tmp.path().join("b");
+    let (ok, err) = cli(&[
+        &"bank",
+        &"generate",
+        &"--speeds",
+        &"30:80:2",
+        &"--instances",
+        &"10",
+        &"--out",
+        &b,
+    ]);
+    assert!(!ok);
     assert!(err.contains("use a STEP of at most 1.8 km/h"), "{err}");
 }

@@ -77,6 +77,14 @@ for _ in $(seq 60); do
 done
 sinfo
 
+# Until every job left the queue (10 min at most).
+wait_for_queue() {
+  for _ in $(seq 600); do
+    [ -z "$(squeue -h)" ] && break
+    sleep 1
+  done
+}
+
 # The bank: small, with as many shard files as tasks have to share.
 cal="$work/track.toml"
 "$WHEELFLAT" calibration --out "$cal" >/dev/null
@@ -84,10 +92,7 @@ args=(--instances 90 --shard-size 10)
 started=$(date +%s)
 WHEELFLAT_SBATCH_ARGS="--cpus-per-task=1 --chdir=$work" \
   scripts/slurm/submit-bank.sh "$tasks" "$cal" "$work/cluster-bank" "${args[@]}"
-for _ in $(seq 600); do
-  [ -z "$(squeue -h)" ] && break
-  sleep 1
-done
+wait_for_queue
 echo "cluster build: $(( $(date +%s) - started )) s"
 cat "$work"/wheelflat-bank-*.log 2>/dev/null | tail -n 20 || true
 "$WHEELFLAT" bank verify "$work/cluster-bank"
@@ -107,10 +112,7 @@ fam=(--instances 40 --shard-size 10 --speeds 48:52:2)
 started=$(date +%s)
 WHEELFLAT_SBATCH_ARGS="--cpus-per-task=1 --chdir=$work" \
   scripts/slurm/submit-bank.sh "$tasks" "$cal" "$work/cluster-family" "${fam[@]}"
-for _ in $(seq 600); do
-  [ -z "$(squeue -h)" ] && break
-  sleep 1
-done
+wait_for_queue
 echo "cluster family build: $(( $(date +%s) - started )) s"
 "$WHEELFLAT" bank verify "$work/cluster-family"
 "$WHEELFLAT" bank generate --calibration "$cal" --out "$work/single-family" "${fam[@]}" >/dev/null

@@ -149,31 +149,33 @@ pub fn open_manifest(dir: &Path) -> Result<(PathBuf, Manifest), BankError> {
     let mut attempt = 0;
     loop {
         let current = resolve(dir)?;
-        let path = current.version.join(MANIFEST);
-        let bytes = std::fs::read(&path).map_err(|source| BankError::Io {
-            path: path.clone(),
-            source,
-        })?;
-        if let Some(want) = &current.manifest_sha256 {
-            let got = sha256_hex(&bytes);
-            if &got != want {
-                attempt += 1;
-                if attempt < 2 {
-                    continue;
-                }
+        match read_hashed(&current)? {
+            Ok(manifest) => return Ok((current.version, manifest)),
+            Err(_) if attempt == 0 => attempt += 1,
+            Err((path, got, want)) => {
                 return Err(BankError::Corrupt {
                     path,
                     message: format!("sha256 {got}, CURRENT says {want}"),
-                });
+                })
             }
         }
-        let manifest = parse_manifest(&path, &bytes)?;
-        return Ok((current.version, manifest));
     }
 }
 
 /// The manifest of a pinned version (a family member), checked against the pin's hash.
 pub fn open_pinned_manifest(current: &Current) -> Result<Manifest, BankError> {
+    read_hashed(current)?.map_err(|(path, got, want)| BankError::Corrupt {
+        path,
+        message: format!("sha256 {got}, the family manifest pins {want}"),
+    })
+}
+
+/// The manifest of `current`'s version, parsed when it hashes to what `current` states;
+/// `Ok(Err((path, got, want)))` when it does not.
+#[allow(clippy::type_complexity)]
+fn read_hashed(
+    current: &Current,
+) -> Result<Result<Manifest, (PathBuf, String, String)>, BankError> {
     let path = current.version.join(MANIFEST);
     let bytes = std::fs::read(&path).map_err(|source| BankError::Io {
         path: path.clone(),
@@ -182,13 +184,10 @@ pub fn open_pinned_manifest(current: &Current) -> Result<Manifest, BankError> {
     if let Some(want) = &current.manifest_sha256 {
         let got = sha256_hex(&bytes);
         if &got != want {
-            return Err(BankError::Corrupt {
-                path,
-                message: format!("sha256 {got}, the family manifest pins {want}"),
-            });
+            return Ok(Err((path, got, want.clone())));
         }
     }
-    parse_manifest(&path, &bytes)
+    parse_manifest(&path, &bytes).map(Ok)
 }
 
 fn parse_manifest(path: &Path, bytes: &[u8]) -> Result<Manifest, BankError> {
