@@ -132,6 +132,20 @@ fn a_family_pins_its_members_picks_by_speed_and_refuses_tampering() {
     let e = family.members[1].open().unwrap_err().to_string();
     assert!(e.contains("the family manifest pins"), "{e}");
     std::fs::write(&pinned, &original).unwrap();
+    // audit and prune act on every member; prune keeps the pinned versions.
+    let (ok, text) = cli(&[&"bank", &"audit", &dir, &"--sample", &"2"]);
+    assert!(ok, "{text}");
+    assert_eq!(
+        text.matches("no drift: all 2 re-simulated").count(),
+        3,
+        "{text}"
+    );
+    assert!(text.contains("no member drifted"), "{text}");
+    let (ok, text) = cli(&[&"bank", &"prune", &dir, &"--keep", &"1"]);
+    assert!(ok, "{text}");
+    assert_eq!(text.matches("0 removed").count(), 3, "{text}");
+    assert!(Family::open(&dir).unwrap().0.members[2].open().is_ok());
+
     // A plain bank is not generated into a family's directory, nor a family into a bank's.
     let e = generate_family(&cal, &member, band, &opts, &Quiet, &|_, _, _| {})
         .unwrap_err()
