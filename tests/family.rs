@@ -447,6 +447,52 @@ fn the_commands_take_the_speed_from_the_pass_and_name_the_band_when_none_fits() 
         assert!(ok, "{cmd}: {text}");
         assert!(text.contains(says), "{cmd}: {text}");
     }
+    // synth: a train whose bogies run at their own speeds, one speed per bogie.
+    let t = tmp.path().join("t.csv");
+    let (ok, text) = cli(&[
+        &"synth",
+        &"--train",
+        &"--bogies",
+        &"2",
+        &"--bogie-speeds",
+        &"47,49.5",
+        &"--out",
+        &t,
+    ]);
+    assert!(ok, "{text}");
+    assert!(
+        text.contains("flats on bogie 2 leading"),
+        "only the default flat that fits: {text}"
+    );
+    let times = train::read_triggers(
+        &t,
+        &std::fs::read_to_string(tmp.path().join("t.triggers.csv")).unwrap(),
+    )
+    .unwrap();
+    let bogies = train::bogies_from_triggers(cal, &t, &times).unwrap();
+    let speeds: Vec<f64> = bogies
+        .iter()
+        .map(|b| (b.speed_km_per_h * 10.0).round() / 10.0)
+        .collect();
+    assert_eq!(
+        speeds.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+        [47.0f64.to_bits(), 49.5f64.to_bits()]
+    );
+    let (ok, text) = cli(&[
+        &"synth",
+        &"--train",
+        &"--bogies",
+        &"2",
+        &"--bogie-speeds",
+        &"48",
+        &"--out",
+        &t,
+    ]);
+    assert!(!ok);
+    assert!(
+        text.contains("--bogie-speeds gives 1 speeds for 2 bogies"),
+        "{text}"
+    );
     let b = tmp.path().join("b");
     let (ok, err) = cli(&[
         &"bank",

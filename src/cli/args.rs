@@ -281,6 +281,10 @@ pub(super) struct SynthArgs {
     /// `3:leading:60:0.5:0.1:12.9` (repeat for more).
     #[arg(long = "flat-on", requires = "train")]
     pub flat_on: Vec<String>,
+    /// Each bogie's speed over the site (km/h), in running order, one per bogie, e.g. a train
+    /// accelerating through it: `47.6,48.3,49.2,50.4` (default: all at the calibration's).
+    #[arg(long = "bogie-speeds", value_delimiter = ',', value_parser = parse_speed, requires = "train")]
+    pub bogie_speeds: Vec<f64>,
 }
 
 // A bank and a measurement to identify against it.

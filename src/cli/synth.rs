@@ -59,7 +59,11 @@ pub(super) fn run(a: &SynthArgs) -> Result<()> {
 /// `synth --train`: the recording, its trigger file and the truth.
 fn train(a: &SynthArgs, cal: &CheckedCalibration) -> Result<()> {
     let flats = if a.flat_on.is_empty() {
+        // The default flats that fit a train of this length (a short train has fewer).
         default_flats()
+            .into_iter()
+            .filter(|f| f.bogie <= a.bogies)
+            .collect()
     } else {
         a.flat_on
             .iter()
@@ -68,6 +72,14 @@ fn train(a: &SynthArgs, cal: &CheckedCalibration) -> Result<()> {
     };
     let mut spec = TrainSpec::twelve_bogies(flats, a.seed);
     spec.bogies = a.bogies;
+    if !a.bogie_speeds.is_empty() && a.bogie_speeds.len() != a.bogies {
+        anyhow::bail!(
+            "--bogie-speeds gives {} speeds for {} bogies: one per bogie",
+            a.bogie_speeds.len(),
+            a.bogies
+        );
+    }
+    spec.speeds_km_per_h = a.bogie_speeds.clone();
     let syn = synthesize_train(cal, &spec)?;
     let triggers = a.out.with_extension("triggers.csv");
     let truth = a
