@@ -8,7 +8,7 @@ use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use wheelflat::bank::family::{
-    generate_family, read_family_manifest, Family, SpeedBand, FAMILY_FILE,
+    at_speed, generate_family, read_family_manifest, Family, SpeedBand, FAMILY_FILE,
 };
 use wheelflat::bank::{Outcome, Quiet};
 use wheelflat::identify::coverage::{self, judge, severity_limits};
@@ -175,6 +175,54 @@ fn a_family_built_in_parts_and_merged_equals_one_built_at_once() {
     assert!(r.manifest_written);
     let skip = [".writer.lock"];
     assert_eq!(common::files(&whole, &skip), common::files(&parts, &skip));
+}
+
+#[test]
+fn readers_keep_the_pinned_members_until_the_whole_family_is_regenerated() {
+    let cal = small_calibration(200).check().unwrap();
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("family-regenerate");
+    let _ = std::fs::remove_dir_all(&dir);
+    let band = SpeedBand::parse("48:50:2").unwrap();
+    let opts = options(20, 10);
+    generate_family(&cal, &dir, band, &opts, &Quiet, &|_, _, _| {}).unwrap();
+    let old_ids: Vec<String> = read_family_manifest(&dir)
+        .unwrap()
+        .0
+        .members
+        .iter()
+        .map(|m| m.bank_id.clone())
+        .collect();
+    // A changed calibration, regenerated nightly: the first member is done, the run stops
+    // (killed, or still working) before the second.
+    let mut changed = cal.document().clone();
+    changed.output.window_samples = 210;
+    let changed = changed.check().unwrap();
+    let member = dir.join("speed-48.0");
+    wheelflat::bank::generate(&at_speed(&changed, 48.0).unwrap(), &member, &opts, &Quiet).unwrap();
+    let new_current = wheelflat::bank::version::read_current(&member)
+        .unwrap()
+        .unwrap();
+    assert!(!new_current.version.ends_with(format!("v-{}", old_ids[0])));
+    // Readers of the family still get the calibration of the whole family, member by member.
+    let (family, _) = Family::open(&dir).unwrap();
+    for (m, id) in family.members.iter().zip(&old_ids) {
+        assert_eq!(&m.open().unwrap().metadata().bank_id, id);
+    }
+    // prune keeps the pinned version beside the member's new CURRENT.
+    let (ok, text) = cli(&[&"bank", &"prune", &dir, &"--keep", &"1"]);
+    assert!(ok, "{text}");
+    assert!(
+        family.members[0].open().is_ok(),
+        "pinned version pruned: {text}"
+    );
+    // The run completes: family.json switches every member at once.
+    generate_family(&changed, &dir, band, &opts, &Quiet, &|_, _, _| {}).unwrap();
+    let (family, _) = Family::open(&dir).unwrap();
+    for (m, id) in family.members.iter().zip(&old_ids) {
+        let bank = m.open().unwrap();
+        assert_ne!(&bank.metadata().bank_id, id);
+        assert_eq!(bank.metadata().sensors[0].samples, 210);
+    }
 }
 
 /// Coverage and median L0 width of `cases` seeded passes, each at the speed `speed(case)`
