@@ -10,7 +10,7 @@ use std::sync::OnceLock;
 use wheelflat::bank::family::{
     at_speed, generate_family, read_family_manifest, Family, SpeedBand, FAMILY_FILE,
 };
-use wheelflat::bank::{Outcome, Quiet};
+use wheelflat::bank::{GenerateOptions, Outcome, Quiet};
 use wheelflat::identify::coverage::{self, judge, severity_limits};
 use wheelflat::identify::family::Members;
 use wheelflat::identify::{Extras, Measurement};
@@ -64,14 +64,30 @@ fn bands_are_parsed_and_a_spacing_that_leaves_gaps_is_refused() {
     }
 }
 
+/// A fresh folder `name` under the test target's temporary folder, the 200-sample
+/// calibration, and the band `band`.
+fn fresh(name: &str, band: &str) -> (CheckedCalibration, PathBuf, SpeedBand) {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    let cal = small_calibration(200).check().unwrap();
+    (cal, dir, SpeedBand::parse(band).unwrap())
+}
+
+/// Generates (or merges) a family quietly.
+fn build(
+    cal: &CheckedCalibration,
+    dir: &Path,
+    band: SpeedBand,
+    opts: &GenerateOptions,
+) -> wheelflat::bank::family::FamilyOutcome {
+    generate_family(cal, dir, band, opts, &Quiet, &|_, _, _| {}).unwrap()
+}
+
 #[test]
 fn a_family_pins_its_members_picks_by_speed_and_refuses_tampering() {
-    let cal = small_calibration(200).check().unwrap();
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("family-small");
-    let _ = std::fs::remove_dir_all(&dir);
-    let band = SpeedBand::parse("46:50:2").unwrap();
+    let (cal, dir, band) = fresh("family-small", "46:50:2");
     let opts = options(60, 30);
-    let first = generate_family(&cal, &dir, band, &opts, &Quiet, &|_, _, _| {}).unwrap();
+    let first = build(&cal, &dir, band, &opts);
     assert!(first.manifest_written);
     assert!(first
         .members
@@ -79,7 +95,7 @@ fn a_family_pins_its_members_picks_by_speed_and_refuses_tampering() {
         .all(|(_, o, _)| matches!(o, Outcome::Complete { .. })));
     let manifest = std::fs::read(dir.join(FAMILY_FILE)).unwrap();
     // Again: every member up to date, family.json the same bytes.
-    let again = generate_family(&cal, &dir, band, &opts, &Quiet, &|_, _, _| {}).unwrap();
+    let again = build(&cal, &dir, band, &opts);
     assert!(again
         .members
         .iter()
@@ -155,23 +171,20 @@ fn a_family_pins_its_members_picks_by_speed_and_refuses_tampering() {
 
 #[test]
 fn a_family_built_in_parts_and_merged_equals_one_built_at_once() {
-    let cal = small_calibration(200).check().unwrap();
-    let root = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("family-parts");
-    let _ = std::fs::remove_dir_all(&root);
-    let band = SpeedBand::parse("49:51:1").unwrap();
+    let (cal, root, band) = fresh("family-parts", "49:51:1");
     let whole = root.join("whole");
     let parts = root.join("parts");
-    generate_family(&cal, &whole, band, &options(40, 10), &Quiet, &|_, _, _| {}).unwrap();
+    build(&cal, &whole, band, &options(40, 10));
     for i in 0..2 {
         let mut o = options(40, 10);
         o.machine_shard = Some((i, 2));
-        let r = generate_family(&cal, &parts, band, &o, &Quiet, &|_, _, _| {}).unwrap();
+        let r = build(&cal, &parts, band, &o);
         assert!(!r.manifest_written, "part {i} of 2 writes no family.json");
         assert!(!parts.join(FAMILY_FILE).exists());
     }
     let mut merge = options(40, 10);
     merge.simulate_missing = false;
-    let r = generate_family(&cal, &parts, band, &merge, &Quiet, &|_, _, _| {}).unwrap();
+    let r = build(&cal, &parts, band, &merge);
     assert!(r.manifest_written);
     let skip = [".writer.lock"];
     assert_eq!(common::files(&whole, &skip), common::files(&parts, &skip));
@@ -179,12 +192,9 @@ fn a_family_built_in_parts_and_merged_equals_one_built_at_once() {
 
 #[test]
 fn readers_keep_the_pinned_members_until_the_whole_family_is_regenerated() {
-    let cal = small_calibration(200).check().unwrap();
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("family-regenerate");
-    let _ = std::fs::remove_dir_all(&dir);
-    let band = SpeedBand::parse("48:50:2").unwrap();
+    let (cal, dir, band) = fresh("family-regenerate", "48:50:2");
     let opts = options(20, 10);
-    generate_family(&cal, &dir, band, &opts, &Quiet, &|_, _, _| {}).unwrap();
+    build(&cal, &dir, band, &opts);
     let old_ids: Vec<String> = read_family_manifest(&dir)
         .unwrap()
         .0
@@ -216,7 +226,7 @@ fn readers_keep_the_pinned_members_until_the_whole_family_is_regenerated() {
         "pinned version pruned: {text}"
     );
     // The run completes: family.json switches every member at once.
-    generate_family(&changed, &dir, band, &opts, &Quiet, &|_, _, _| {}).unwrap();
+    build(&changed, &dir, band, &opts);
     let (family, _) = Family::open(&dir).unwrap();
     for (m, id) in family.members.iter().zip(&old_ids) {
         let bank = m.open().unwrap();

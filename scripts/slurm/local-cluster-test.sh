@@ -85,40 +85,32 @@ wait_for_queue() {
   done
 }
 
-# The bank: small, with as many shard files as tasks have to share.
+# Builds `cluster-NAME` with the array and the merge and `single-NAME` on one machine, with
+# the same `bank generate` arguments; every file of the two, byte for byte (the empty
+# writer-lock files included).
+cluster_vs_single() {
+  local name=$1 started
+  shift
+  started=$(date +%s)
+  WHEELFLAT_SBATCH_ARGS="--cpus-per-task=1 --chdir=$work" \
+    scripts/slurm/submit-bank.sh "$tasks" "$cal" "$work/cluster-$name" "$@"
+  wait_for_queue
+  echo "cluster $name build: $(( $(date +%s) - started )) s"
+  "$WHEELFLAT" bank verify "$work/cluster-$name"
+  "$WHEELFLAT" bank generate --calibration "$cal" --out "$work/single-$name" "$@" >/dev/null
+  if diff -r "$work/cluster-$name" "$work/single-$name"; then
+    echo "cluster $name and single-machine $name are byte-identical ($tasks array tasks + merge)"
+  else
+    cat "$work"/wheelflat-bank-*.log 2>/dev/null | tail -n 20 || true
+    echo "the cluster $name differs from the single-machine $name" >&2
+    exit 1
+  fi
+}
+
 cal="$work/track.toml"
 "$WHEELFLAT" calibration --out "$cal" >/dev/null
-args=(--instances 90 --shard-size 10)
-started=$(date +%s)
-WHEELFLAT_SBATCH_ARGS="--cpus-per-task=1 --chdir=$work" \
-  scripts/slurm/submit-bank.sh "$tasks" "$cal" "$work/cluster-bank" "${args[@]}"
-wait_for_queue
-echo "cluster build: $(( $(date +%s) - started )) s"
-cat "$work"/wheelflat-bank-*.log 2>/dev/null | tail -n 20 || true
-"$WHEELFLAT" bank verify "$work/cluster-bank"
-
-"$WHEELFLAT" bank generate --calibration "$cal" --out "$work/single-bank" "${args[@]}" >/dev/null
-# Every file of the two banks, byte for byte (the empty writer-lock files included).
-if diff -r "$work/cluster-bank" "$work/single-bank"; then
-  echo "cluster bank and single-machine bank are byte-identical ($tasks array tasks + merge)"
-else
-  echo "the cluster bank differs from the single-machine bank" >&2
-  exit 1
-fi
-
+# A small bank, with as many shard files as tasks have to share.
+cluster_vs_single bank --instances 90 --shard-size 10
 # A bank family the same way: every task builds its part of every member, the merge completes
-# the members and writes family.json; the result must equal the family built on one machine.
-fam=(--instances 40 --shard-size 10 --speeds 48:52:2)
-started=$(date +%s)
-WHEELFLAT_SBATCH_ARGS="--cpus-per-task=1 --chdir=$work" \
-  scripts/slurm/submit-bank.sh "$tasks" "$cal" "$work/cluster-family" "${fam[@]}"
-wait_for_queue
-echo "cluster family build: $(( $(date +%s) - started )) s"
-"$WHEELFLAT" bank verify "$work/cluster-family"
-"$WHEELFLAT" bank generate --calibration "$cal" --out "$work/single-family" "${fam[@]}" >/dev/null
-if diff -r "$work/cluster-family" "$work/single-family"; then
-  echo "cluster family and single-machine family are byte-identical ($tasks array tasks + merge)"
-else
-  echo "the cluster family differs from the single-machine family" >&2
-  exit 1
-fi
+# the members and writes family.json.
+cluster_vs_single family --instances 40 --shard-size 10 --speeds 48:52:2
