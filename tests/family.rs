@@ -147,6 +147,12 @@ fn a_family_pins_its_members_picks_by_speed_and_refuses_tampering() {
     let (family, _) = Family::open(&dir).unwrap();
     let e = family.members[1].open().unwrap_err().to_string();
     assert!(e.contains("the family manifest pins"), "{e}");
+    // Nor is a manifest changed after its CURRENT was written pinned anew.
+    let e = wheelflat::bank::family::write_family_manifest(&dir, band, 2500.0)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("CURRENT says"), "{e}");
+    assert_eq!(std::fs::read(dir.join(FAMILY_FILE)).unwrap(), manifest);
     std::fs::write(&pinned, &original).unwrap();
     // audit and prune act on every member; prune keeps the pinned versions.
     let (ok, text) = cli(&[&"bank", &"audit", &dir, &"--sample", &"2"]);

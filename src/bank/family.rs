@@ -185,7 +185,8 @@ pub struct Member {
     pub sample_rate_hz: f64,
     /// The bank directory (for messages).
     pub dir: PathBuf,
-    /// The pinned version and its manifest hash.
+    /// The pinned version and its manifest hash (a single bank: the version it was opened at,
+    /// through its `CURRENT`, with no pin of its own).
     pub current: Current,
 }
 
@@ -236,13 +237,9 @@ impl Family {
     pub fn open(dir: &Path) -> Result<(Family, Option<Bank>), BankError> {
         let path = dir.join(FAMILY_FILE);
         if !path.is_file() {
+            // The key before the bank: one regenerated in between is noticed at the next look.
+            let key = Family::current_key(dir)?;
             let bank = Bank::open(dir)?;
-            let version = bank.dir().to_path_buf();
-            let bytes = std::fs::read(version.join(MANIFEST)).map_err(|source| BankError::Io {
-                path: version.join(MANIFEST),
-                source,
-            })?;
-            let sha = sha256_hex(&bytes);
             let cal = &bank.metadata().calibration;
             let family = Family {
                 dir: dir.to_path_buf(),
@@ -253,11 +250,11 @@ impl Family {
                     sample_rate_hz: cal.output.sample_rate_hz,
                     dir: dir.to_path_buf(),
                     current: Current {
-                        version: version.clone(),
-                        manifest_sha256: Some(sha.clone()),
+                        version: bank.dir().to_path_buf(),
+                        manifest_sha256: None,
                     },
                 }],
-                key: format!("{}\n{sha}", version.display()),
+                key,
             };
             return Ok((family, Some(bank)));
         }
@@ -298,12 +295,7 @@ impl Family {
         let c = super::version::resolve(dir)?;
         let sha = match c.manifest_sha256 {
             Some(s) => s,
-            None => sha256_hex(&std::fs::read(c.version.join(MANIFEST)).map_err(|source| {
-                BankError::Io {
-                    path: c.version.join(MANIFEST),
-                    source,
-                }
-            })?),
+            None => super::version::manifest_sha256(&c.version)?,
         };
         Ok(format!("{}\n{sha}", c.version.display()))
     }
@@ -416,15 +408,12 @@ pub fn member_entry(dir: &Path, speed_km_per_h: f64) -> Result<MemberEntry, Bank
     let c = read_current(dir)?.ok_or_else(|| BankError::NotABank {
         dir: dir.to_path_buf(),
     })?;
-    let bytes = std::fs::read(c.version.join(MANIFEST)).map_err(|source| BankError::Io {
-        path: c.version.join(MANIFEST),
-        source,
-    })?;
-    let manifest: super::Manifest =
-        serde_json::from_slice(&bytes).map_err(|e| BankError::Corrupt {
-            path: c.version.join(MANIFEST),
-            message: e.to_string(),
-        })?;
+    // Only a manifest that hashes to what the member's CURRENT says is pinned.
+    let manifest = super::version::manifest_as_stated(&c, "CURRENT says")?;
+    let manifest_sha256 = match &c.manifest_sha256 {
+        Some(s) => s.clone(),
+        None => super::version::manifest_sha256(&c.version)?,
+    };
     Ok(MemberEntry {
         speed_km_per_h,
         dir: member_dir_name(speed_km_per_h),
@@ -433,7 +422,7 @@ pub fn member_entry(dir: &Path, speed_km_per_h: f64) -> Result<MemberEntry, Bank
             .file_name()
             .map(|n| n.to_string_lossy().to_string())
             .unwrap_or_default(),
-        manifest_sha256: sha256_hex(&bytes),
+        manifest_sha256,
         bank_id: manifest.bank_id,
     })
 }

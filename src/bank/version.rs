@@ -61,15 +61,9 @@ pub(crate) fn pinned(
     version_name: &str,
     manifest_sha256: &str,
 ) -> Result<Current, BankError> {
+    // The text always has its hash line, so the parsed pin always has a hash (or is refused).
     let text = format!("{version_name}\n{MANIFEST_KEY} {manifest_sha256}\n");
-    let c = parse_current(dir, path, &text)?;
-    if c.manifest_sha256.is_none() {
-        return Err(BankError::Corrupt {
-            path: path.to_path_buf(),
-            message: format!("{version_name}: no manifest hash"),
-        });
-    }
-    Ok(c)
+    parse_current(dir, path, &text)
 }
 
 /// The text of a `CURRENT` file of bank `dir` (read from `path`), checked.
@@ -164,9 +158,18 @@ pub fn open_manifest(dir: &Path) -> Result<(PathBuf, Manifest), BankError> {
 
 /// The manifest of a pinned version (a family member), checked against the pin's hash.
 pub fn open_pinned_manifest(current: &Current) -> Result<Manifest, BankError> {
+    manifest_as_stated(current, "the family manifest pins")
+}
+
+/// The manifest of `current`'s version, checked against the hash `current` states (`stated_by`
+/// names who states it in the error).
+pub(crate) fn manifest_as_stated(
+    current: &Current,
+    stated_by: &str,
+) -> Result<Manifest, BankError> {
     read_hashed(current)?.map_err(|(path, got, want)| BankError::Corrupt {
         path,
-        message: format!("sha256 {got}, the family manifest pins {want}"),
+        message: format!("sha256 {got}, {stated_by} {want}"),
     })
 }
 
@@ -176,11 +179,7 @@ pub fn open_pinned_manifest(current: &Current) -> Result<Manifest, BankError> {
 fn read_hashed(
     current: &Current,
 ) -> Result<Result<Manifest, (PathBuf, String, String)>, BankError> {
-    let path = current.version.join(MANIFEST);
-    let bytes = std::fs::read(&path).map_err(|source| BankError::Io {
-        path: path.clone(),
-        source,
-    })?;
+    let (path, bytes) = manifest_bytes(&current.version)?;
     if let Some(want) = &current.manifest_sha256 {
         let got = sha256_hex(&bytes);
         if &got != want {
@@ -287,12 +286,23 @@ pub(crate) fn check_against_manifest(
 /// Reads a version directory's manifest (unchecked against `CURRENT`: for writers and for
 /// `bank verify`, which checks it itself).
 pub fn read_manifest(version: &Path) -> Result<Manifest, BankError> {
+    let (path, bytes) = manifest_bytes(version)?;
+    parse_manifest(&path, &bytes)
+}
+
+/// The SHA-256 of a version's manifest as it is on disk (for a `CURRENT` that states none).
+pub(crate) fn manifest_sha256(version: &Path) -> Result<String, BankError> {
+    Ok(sha256_hex(&manifest_bytes(version)?.1))
+}
+
+/// A version's manifest path and bytes.
+fn manifest_bytes(version: &Path) -> Result<(PathBuf, Vec<u8>), BankError> {
     let path = version.join(MANIFEST);
     let bytes = std::fs::read(&path).map_err(|source| BankError::Io {
         path: path.clone(),
         source,
     })?;
-    parse_manifest(&path, &bytes)
+    Ok((path, bytes))
 }
 
 #[cfg(test)]

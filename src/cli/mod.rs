@@ -161,8 +161,7 @@ fn open_identifier(
     speed: Option<f64>,
 ) -> Result<(Identifier, Measurement)> {
     let mut members = open_members(bank_dir, calibration)?;
-    let m = read_measurement(&mut members, measured, speed)?;
-    let k = members.member_for(m.speed_km_per_h.expect("read_measurement states it"))?;
+    let (m, k) = read_measurement(&mut members, measured, speed)?;
     Ok((members.take(k), m))
 }
 
@@ -178,17 +177,22 @@ fn open_members(bank_dir: &Path, calibration: Option<&Path>) -> Result<Members> 
 }
 
 /// Reads a measurement on the family's sample rate, with its speed stated (its line or
-/// `speed`) and checked against the family's band.
-fn read_measurement(members: &mut Members, path: &Path, speed: Option<f64>) -> Result<Measurement> {
+/// `speed`); the member its speed picks, opened (a speed outside the band names the file).
+fn read_measurement(
+    members: &mut Members,
+    path: &Path,
+    speed: Option<f64>,
+) -> Result<(Measurement, usize)> {
     let text = read_text(path, MAX_MEASUREMENT_BYTES, "measurement")?;
     let mut m = Measurement::from_csv(path, &text, members.family().sample_rate_hz)?;
     let v = m.pass_speed(speed)?;
     m.speed_km_per_h = Some(v);
-    members
+    let k = members
         .family()
         .member_for(v)
         .with_context(|| format!("measurement {}", path.display()))?;
-    Ok(m)
+    members.open_member(k)?;
+    Ok((m, k))
 }
 
 /// Opens a bank, or the member of a bank family at `speed` (which a family needs; for a

@@ -113,10 +113,7 @@ fn identify_one(
             }
         ));
     }
-    let m = super::read_measurement(&mut open.members, path, None)?;
-    let k = open
-        .members
-        .member_for(m.speed_km_per_h.expect("read_measurement states it"))?;
+    let (m, k) = super::read_measurement(&mut open.members, path, None)?;
     let id = open
         .members
         .get(k)

@@ -24,10 +24,7 @@ impl Members {
         let (family, single) = Family::open(dir)?;
         let mut open: Vec<Option<Identifier>> = family.members.iter().map(|_| None).collect();
         if let Some(bank) = single {
-            let s = settings
-                .clone()
-                .unwrap_or_else(|| bank.metadata().calibration.identification.clone());
-            open[0] = Some(Identifier::new(bank, s)?);
+            open[0] = Some(identifier(bank, &settings)?);
         }
         Ok(Members {
             family,
@@ -48,7 +45,7 @@ impl Members {
             .family
             .member_for(speed_km_per_h)
             .map_err(|e| IdentifyError::Invalid(e.to_string()))?;
-        self.ensure(k)?;
+        self.open_member(k)?;
         Ok(k)
     }
 
@@ -59,7 +56,7 @@ impl Members {
             Some(k) => k,
             None => {
                 let k = self.open.len() / 2;
-                self.ensure(k)?;
+                self.open_member(k)?;
                 k
             }
         };
@@ -69,7 +66,8 @@ impl Members {
     /// The identifier of an opened member.
     ///
     /// # Panics
-    /// When member `k` was not opened by [`Members::member_for`] or [`Members::any`].
+    /// When member `k` was not opened by [`Members::member_for`], [`Members::open_member`] or
+    /// [`Members::any`].
     pub fn get(&self, k: usize) -> &Identifier {
         self.open[k]
             .as_ref()
@@ -86,15 +84,23 @@ impl Members {
             .expect("a member is opened by member_for before it is used")
     }
 
-    fn ensure(&mut self, k: usize) -> Result<(), IdentifyError> {
+    /// Opens member `k` if it is not open yet (`k` as [`Family::member_for`] gives it).
+    pub fn open_member(&mut self, k: usize) -> Result<(), IdentifyError> {
         if self.open[k].is_none() {
             let bank = self.family.members[k].open()?;
-            let s = self
-                .settings
-                .clone()
-                .unwrap_or_else(|| bank.metadata().calibration.identification.clone());
-            self.open[k] = Some(Identifier::new(bank, s)?);
+            self.open[k] = Some(identifier(bank, &self.settings)?);
         }
         Ok(())
     }
+}
+
+/// An identifier on `bank` with `settings`, or the bank's own when `None`.
+fn identifier(
+    bank: crate::bank::Bank,
+    settings: &Option<IdentificationParams>,
+) -> Result<Identifier, IdentifyError> {
+    let s = settings
+        .clone()
+        .unwrap_or_else(|| bank.metadata().calibration.identification.clone());
+    Identifier::new(bank, s)
 }
