@@ -3,6 +3,7 @@
 //! ≤ 0.5 ms). Uses the bank at `$WHEELFLAT_BENCH_BANK` (the README's figures: the default 50k
 //! bank), else builds a 2,500-instance bank under `target/bench-bank`. The measurement is a
 //! synthetic 60 mm × 0.5 mm flat on RPS1 and RPS2, the paper's two working sensors (60 PIPs).
+//! The refinement stage (`identify --refine`) is timed separately, on all five sensors.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
@@ -112,6 +113,23 @@ fn bench_identify(c: &mut Criterion) {
         &format!("falsification_pass_{}_points_{n}_instances", points.len()),
         |b| b.iter(|| falsify(black_box(&points), id.resolution())),
     );
+
+    // The opt-in refinement stage (issue 11: ≤ 2 s on 2 cores), timed on its own: 640
+    // simulations in 2 rounds around this measurement's survivors, five sensors.
+    let all = id.identify(&m, None, quick).unwrap();
+    let sim = wheelflat::model::Simulator::new(&cal).unwrap();
+    let settings = wheelflat::identify::refine::RefineSettings::default();
+    let mut group = c.benchmark_group("refine");
+    group.sample_size(10);
+    group.bench_function(
+        format!("refine_{}_simulations_{n}_instances", settings.simulations),
+        |b| {
+            b.iter(|| {
+                wheelflat::identify::refine::refine(&id, &sim, black_box(&all), settings).unwrap()
+            })
+        },
+    );
+    group.finish();
 }
 
 criterion_group!(benches, bench_identify);

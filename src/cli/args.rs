@@ -325,6 +325,14 @@ pub(super) struct IdentifyArgs {
     /// entropy curves.
     #[arg(long)]
     pub no_baselines: bool,
+    /// Also refine: simulate new flats inside the surviving cells with the bank's calibration
+    /// and falsify them at the same points (about 1.2 s on 2 cores for 640 simulations);
+    /// reported beside the bank-only answer (docs/identification.md#refinement).
+    #[arg(long)]
+    pub refine: bool,
+    /// Simulations of the refinement, split over its rounds (1–20000).
+    #[arg(long, default_value_t = 640, requires = "refine")]
+    pub refine_simulations: usize,
 }
 
 // `watch`.

@@ -2,6 +2,7 @@
 
 use super::args::{CompareArgs, IdentifyArgs};
 use super::open_identifier;
+use crate::identify::refine::{refine, RefineSettings};
 use crate::identify::synth::Truth;
 use crate::identify::{Extras, Identification};
 use crate::report::tables::{comparison_table, identification_text};
@@ -21,7 +22,16 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
     } else {
         Extras::NONE
     };
-    let id = identifier.identify(&m, i.sensors.as_deref(), extras)?;
+    let mut id = identifier.identify(&m, i.sensors.as_deref(), extras)?;
+    if a.refine {
+        let cal = identifier.bank().metadata().calibration.clone().check()?;
+        let sim = crate::model::Simulator::new(&cal)?;
+        let settings = RefineSettings {
+            simulations: a.refine_simulations,
+            ..RefineSettings::default()
+        };
+        id.refinement = Some(refine(&identifier, &sim, &id, settings)?);
+    }
     if a.report {
         return report(&id, &a.out, None);
     }

@@ -63,7 +63,7 @@ impl Cells {
     }
 
     /// Cells from a neighbour list (the same number per point) and the points' (L, d, c, X_p).
-    fn from_neighbours(neighbours: Vec<u32>, coords: Vec<[f64; 4]>) -> Cells {
+    pub(crate) fn from_neighbours(neighbours: Vec<u32>, coords: Vec<[f64; 4]>) -> Cells {
         // Neighbours per instance: the graph's length over the instances (NEIGHBOURS for a
         // bank's stored graph; studies may give more).
         let k = if coords.is_empty() {

@@ -17,6 +17,7 @@ mod flat_free;
 pub mod measurement;
 pub mod pip;
 pub mod ranges;
+pub mod refine;
 pub mod result;
 pub mod severity;
 pub mod synth;
@@ -672,6 +673,7 @@ impl Identifier {
             summary,
             maintenance_hint: hint,
             timings_ms: timings,
+            refinement: None,
         })
     }
 }

@@ -227,4 +227,7 @@ pub struct Identification {
     pub maintenance_hint: String,
     /// Wall-clock of the stages (ms).
     pub timings_ms: Vec<(String, f64)>,
+    /// The refined answer (`identify --refine`), beside the bank-only one above.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refinement: Option<super::refine::Refinement>,
 }

@@ -84,6 +84,9 @@ pub fn comparison_table(id: &Identification, truth: Option<&Truth>) -> String {
 /// and comparison points, and the timings.
 pub fn identification_text(id: &Identification) -> String {
     let mut s = format!("{}\n{}\n", id.summary, id.maintenance_hint);
+    if let Some(r) = &id.refinement {
+        s += &format!("{}\n{}\n", r.summary, r.maintenance_hint);
+    }
     s += &speed_line(&id.speed);
     s.push('\n');
     s += &format!(

@@ -142,6 +142,14 @@ pub(super) fn render_html(
         "<p class=\"hint\"><strong>Maintenance:</strong> {}</p>",
         e(&id.maintenance_hint)
     )?;
+    if let Some(r) = &id.refinement {
+        writeln!(
+            h,
+            "<section class=\"verdict\">\n<h2>Refined</h2>\n<p>{}</p>\n<p class=\"hint\">{}</p>\n</section>",
+            e(&r.summary),
+            e(&r.maintenance_hint)
+        )?;
+    }
 
     writeln!(h, "<table class=\"kv\">\n<tbody>")?;
     let share = if id.bank_instances > 0 {

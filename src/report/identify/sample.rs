@@ -239,6 +239,7 @@ pub fn identification() -> Identification {
             ("entropy".into(), 310.2),
             ("falsify".into(), 95.0),
         ],
+        refinement: None,
     }
 }
 
