@@ -28,6 +28,7 @@ fn main() {
             },
             Err(_) => RefineMode::Cells,
         },
+        whole_record: std::env::var("WHOLE").is_ok(),
         ..RefineSettings::default()
     };
     let cal = bank.metadata().calibration.clone().check().unwrap();

@@ -1,0 +1,278 @@
+//! The comparison points a refinement judges flats at, and the simulation that gives every
+//! flat's values there.
+
+use super::Member;
+use crate::bank::schema::SensorAxis;
+use crate::identify::falsify::Point;
+use crate::identify::result::Identification;
+use crate::identify::{Identifier, IdentifyError, ThresholdCurve};
+use crate::model::{batch_key, Flat, Record, Simulator, WheelPosition, LANES};
+use rayon::prelude::*;
+
+/// The comparison points of an identification: each is a sample (EIP) or a window's extreme
+/// (envelope point) of one bank axis, with its measurement, thresholds and threshold curve.
+pub(super) struct Comparison {
+    /// The bank's sensor axes.
+    pub(super) axes: Vec<SensorAxis>,
+    /// (bank axis, first sample, last sample, window maximum / minimum / the sample).
+    pub(super) at: Vec<(usize, usize, usize, Option<bool>)>,
+    pub(super) measured: Vec<f64>,
+    pub(super) thresholds: Vec<(f64, f64)>,
+    pub(super) curves: Vec<ThresholdCurve>,
+}
+
+impl Comparison {
+    pub(super) fn of(identifier: &Identifier, id: &Identification) -> Comparison {
+        let axes = &identifier.bank().metadata().sensors;
+        let axis_of = |series: usize| {
+            axes.iter()
+                .position(|a| a.name == id.series[series].sensor)
+                .expect("identified sensors are the bank's")
+        };
+        let p = id.per_point_probability;
+        let mut c = Comparison {
+            axes: axes.clone(),
+            at: Vec::new(),
+            measured: Vec::new(),
+            thresholds: Vec::new(),
+            curves: Vec::new(),
+        };
+        for &e in &id.eip {
+            let cand = &id.candidates[e];
+            c.at.push((axis_of(cand.series), cand.sample, cand.sample, None));
+            c.measured.push(cand.measured_kn);
+            c.thresholds
+                .push((cand.threshold_low_kn, cand.threshold_high_kn));
+            c.curves
+                .push(identifier.threshold_curve(cand.measured_kn, p));
+        }
+        for x in &id.envelope {
+            c.at.push((
+                axis_of(x.series),
+                x.sample - x.half_width,
+                x.sample + x.half_width,
+                Some(x.kind == "max"),
+            ));
+            c.measured.push(x.measured_kn);
+            c.thresholds.push((x.threshold_low_kn, x.threshold_high_kn));
+            c.curves.push(identifier.threshold_curve(x.measured_kn, p));
+        }
+        c
+    }
+
+    /// Every sample of every sensor window of the identification, with thresholds at
+    /// `φ^(1/N)` for the N samples (Šídák over the whole record).
+    pub(super) fn whole_record(identifier: &Identifier, id: &Identification) -> Comparison {
+        let axes = &identifier.bank().metadata().sensors;
+        let total: usize = id.series.iter().map(|s| s.values_kn.len()).sum();
+        let p = id.phi.powf(1.0 / total.max(1) as f64);
+        let mut c = Comparison {
+            axes: axes.clone(),
+            at: Vec::with_capacity(total),
+            measured: Vec::with_capacity(total),
+            thresholds: Vec::with_capacity(total),
+            curves: Vec::with_capacity(total),
+        };
+        for ser in &id.series {
+            let axis = axes
+                .iter()
+                .position(|a| a.name == ser.sensor)
+                .expect("identified sensors are the bank's");
+            for (k, &y) in ser.values_kn.iter().enumerate() {
+                c.at.push((axis, k, k, None));
+                c.measured.push(y);
+                c.thresholds.push(identifier.thresholds(y, p));
+                c.curves.push(identifier.threshold_curve(y, p));
+            }
+        }
+        c
+    }
+
+    /// The points of `self` followed by those of `other`.
+    pub(super) fn chain(mut self, other: Comparison) -> Comparison {
+        self.at.extend(other.at);
+        self.measured.extend(other.measured);
+        self.thresholds.extend(other.thresholds);
+        self.curves.extend(other.curves);
+        self
+    }
+
+    /// The falsification points `range` of the comparison over `columns` (one per point).
+    pub(super) fn points<'a>(
+        &'a self,
+        columns: &'a [Vec<f32>],
+        range: std::ops::Range<usize>,
+    ) -> Vec<Point<'a>> {
+        range
+            .map(|p| Point {
+                predictions: &columns[p],
+                measured_kn: self.measured[p],
+                low_kn: self.thresholds[p].0,
+                high_kn: self.thresholds[p].1,
+                curve: Some(&self.curves[p]),
+            })
+            .collect()
+    }
+
+    /// A window's value: the sample, or the extreme over the window.
+    pub(super) fn value(
+        at: (usize, usize, usize, Option<bool>),
+        series: impl Fn(usize) -> f32,
+    ) -> f32 {
+        let (_, a, b, kind) = at;
+        match kind {
+            None => series(a),
+            Some(true) => (a..=b).map(series).fold(f32::MIN, f32::max),
+            Some(false) => (a..=b).map(series).fold(f32::MAX, f32::min),
+        }
+    }
+}
+/// Simulates `flats` (in lockstep batches sorted by their first strike, on the rayon pool)
+/// and returns each one's values at the comparison points, in the order given.
+pub(super) fn simulate_at(
+    sim: &Simulator,
+    cmp: &Comparison,
+    flats: &[(Flat, [f64; 4], WheelPosition)],
+) -> Result<Vec<Vec<f32>>, IdentifyError> {
+    let mut order: Vec<usize> = (0..flats.len()).collect();
+    let keys: Vec<f64> = flats.iter().map(|f| batch_key(sim, Some(&f.0))).collect();
+    order.sort_by(|&a, &b| keys[a].total_cmp(&keys[b]).then(a.cmp(&b)));
+    let done: Vec<Vec<(usize, Vec<f32>)>> = order
+        .par_chunks(LANES)
+        .map_init(
+            || sim.lane_workspace::<LANES>(),
+            |ws, batch| {
+                let members: Vec<Option<&Flat>> =
+                    batch.iter().map(|&k| Some(&flats[k].0)).collect();
+                let (results, _) = sim.run_batch(&members, Record::default(), ws);
+                batch
+                    .iter()
+                    .zip(results)
+                    .map(|(&k, r)| {
+                        let resp = r.map_err(|e| {
+                            IdentifyError::Invalid(format!(
+                                "refinement: simulating a flat failed: {e}"
+                            ))
+                        })?;
+                        let g = cmp
+                            .at
+                            .iter()
+                            .map(|&at| {
+                                let a = &cmp.axes[at.0];
+                                let w = resp.window(at.0, a.first_sample, a.samples);
+                                Comparison::value(at, |j| (w[j] / 1e3) as f32)
+                            })
+                            .collect();
+                        Ok((k, g))
+                    })
+                    .collect::<Result<Vec<_>, IdentifyError>>()
+            },
+        )
+        .collect::<Result<_, _>>()?;
+    let mut out = vec![Vec::new(); flats.len()];
+    for (k, g) in done.into_iter().flatten() {
+        out[k] = g;
+    }
+    Ok(out)
+}
+/// How far each member lies outside its band at the worst comparison point, in half-widths
+/// of the measured force's thresholds there (≤ 0: it passes every point with no widening,
+/// κ = 0, judged as falsification judges: the prediction's own thresholds where it is the
+/// larger force).
+pub(super) fn misfit(cmp: &Comparison, members: &[Member]) -> Vec<f64> {
+    members
+        .iter()
+        .map(|m| {
+            (0..cmp.at.len())
+                .map(|p| {
+                    let (g, y) = (m.g[p] as f64, cmp.measured[p]);
+                    let (lo, hi) = cmp.thresholds[p];
+                    let half = 0.5 * (hi - lo).max(1e-9);
+                    let outside = |(lo, hi): (f64, f64)| {
+                        let r = g - y;
+                        if r > hi {
+                            r - hi
+                        } else if r < lo {
+                            lo - r
+                        } else {
+                            -(r - lo).min(hi - r)
+                        }
+                    };
+                    let mut e = outside((lo, hi));
+                    if e > 0.0 && g.abs() > y.abs() {
+                        e = e.min(outside(cmp.curves[p].at(g)));
+                    }
+                    e / half
+                })
+                .fold(f64::MIN, f64::max)
+        })
+        .collect()
+}
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::falsify::falsify;
+    use crate::identify::uncertainty::{uniform, CombinedUncertainty};
+
+    /// The witness test (`misfit ≤ 0`) is falsification at κ = 0: the same flats pass, on
+    /// predictions spread across the band's edges, above and below the measurement.
+    #[test]
+    fn a_witness_is_what_falsification_keeps_with_no_widening() {
+        let u = CombinedUncertainty::new(&crate::model::Calibration::default().identification);
+        let p = 0.995;
+        let measured = vec![20.0, 35.0, 5.0];
+        let cmp = Comparison {
+            axes: Vec::new(),
+            at: vec![(0, 0, 0, None); 3],
+            thresholds: measured.iter().map(|&y| u.thresholds(y, p)).collect(),
+            curves: measured.iter().map(|&y| u.curve(y, p)).collect(),
+            measured,
+        };
+        let mut state = 7u64;
+        let members: Vec<Member> = (0..3000)
+            .map(|_| Member {
+                x: [0.0; 4],
+                wheel: WheelPosition::Trailing,
+                half: [0.0; 4],
+                g: cmp
+                    .measured
+                    .iter()
+                    .map(|&y| (y * (0.6 + 0.8 * uniform(&mut state))) as f32)
+                    .collect(),
+            })
+            .collect();
+        let score = misfit(&cmp, &members);
+        let columns: Vec<Vec<f32>> = (0..3)
+            .map(|q| members.iter().map(|m| m.g[q]).collect())
+            .collect();
+        let points: Vec<Point> = (0..3)
+            .map(|q| Point {
+                predictions: &columns[q],
+                measured_kn: cmp.measured[q],
+                low_kn: cmp.thresholds[q].0,
+                high_kn: cmp.thresholds[q].1,
+                curve: Some(&cmp.curves[q]),
+            })
+            .collect();
+        let kept = falsify(&points, None);
+        let witnesses: Vec<u32> = (0..members.len() as u32)
+            .filter(|&k| score[k as usize] <= 0.0)
+            .collect();
+        assert_eq!(kept, witnesses);
+        assert!(
+            !kept.is_empty() && kept.len() < members.len(),
+            "{}",
+            kept.len()
+        );
+    }
+
+    #[test]
+    fn a_window_value_is_the_sample_or_the_window_extreme() {
+        let series = [1.0f32, 4.0, -2.0, 3.0];
+        let at = |kind| (0, 0, 3, kind);
+        let v = |at| Comparison::value(at, |j| series[j]).to_bits();
+        assert_eq!(v((0, 2, 2, None)), (-2.0f32).to_bits());
+        assert_eq!(v(at(Some(true))), 4.0f32.to_bits());
+        assert_eq!(v(at(Some(false))), (-2.0f32).to_bits());
+    }
+}
