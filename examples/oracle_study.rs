@@ -50,11 +50,7 @@ fn main() {
     let samples: usize = a.get(5).map_or(480, |s| s.parse().unwrap());
     let all = a.get(6).is_some_and(|s| s == "all");
     let cal = bank.metadata().calibration.clone().check().unwrap();
-    let meas_cal = if finer {
-        coverage::finer_model(&cal)
-    } else {
-        cal.clone()
-    };
+    let meas_cal = coverage::measurement_model(&cal, finer);
     let axes = bank.metadata().sensors.clone();
     let radius = cal.vehicle.wheel_radius_m;
     let (insp, urg, top) = coverage::severity_limits(&cal);

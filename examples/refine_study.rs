@@ -28,15 +28,12 @@ fn main() {
             },
             Err(_) => RefineMode::Cells,
         },
-        whole_record: std::env::var("WHOLE").is_ok(),
+        whole_record: std::env::var("WHOLE").ok().map(|w| w.parse().unwrap()),
+        ends_weight: std::env::var("ENDS").map_or(4, |w| w.parse().unwrap()),
         ..RefineSettings::default()
     };
     let cal = bank.metadata().calibration.clone().check().unwrap();
-    let meas_cal = if finer {
-        coverage::finer_model(&cal)
-    } else {
-        cal.clone()
-    };
+    let meas_cal = coverage::measurement_model(&cal, finer);
     let (insp, urg, top) = coverage::severity_limits(&cal);
     let sim = Simulator::new(&cal).unwrap();
     let id = Identifier::new(bank, cal.identification.clone()).unwrap();

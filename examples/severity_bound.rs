@@ -23,11 +23,7 @@ fn main() {
     let finer = a.get(4).is_some_and(|s| s == "finer");
     let max_checked: usize = a.get(5).map_or(400, |s| s.parse().unwrap());
     let cal = bank.metadata().calibration.clone().check().unwrap();
-    let meas_cal = if finer {
-        coverage::finer_model(&cal)
-    } else {
-        cal.clone()
-    };
+    let meas_cal = coverage::measurement_model(&cal, finer);
     let (insp, urg, _) = coverage::severity_limits(&cal);
     let id = Identifier::new(bank, cal.identification.clone()).unwrap();
     let axes = id.bank().metadata().sensors.clone();

@@ -131,17 +131,20 @@ fn identify_refine_reports_beside_the_bank_only_answer() {
     let tmp = tempfile::tempdir().unwrap();
     let csv = tmp.path().join("m.csv");
     std::fs::write(&csv, common::narrow_measurement(cal, 3, true)).unwrap();
+    let identify = |out: &std::path::Path, simulations: &str| {
+        wheelflat()
+            .args(["identify", "--bank"])
+            .arg(dir)
+            .arg("--measured")
+            .arg(&csv)
+            .arg("--out")
+            .arg(out)
+            .args(["--refine", "--refine-simulations", simulations])
+            .output()
+            .unwrap()
+    };
     let out = tmp.path().join("out");
-    let run = wheelflat()
-        .args(["identify", "--bank"])
-        .arg(dir)
-        .arg("--measured")
-        .arg(&csv)
-        .arg("--out")
-        .arg(&out)
-        .args(["--refine", "--refine-simulations", "64"])
-        .output()
-        .unwrap();
+    let run = identify(&out, "64");
     let text = String::from_utf8_lossy(&run.stdout);
     assert!(
         run.status.success(),
@@ -160,16 +163,7 @@ fn identify_refine_reports_beside_the_bank_only_answer() {
     assert_eq!(json["refinement"]["simulations"], 64);
     assert!(json["refinement"]["ranges"]["l0_mm"].is_array());
 
-    let refused = wheelflat()
-        .args(["identify", "--bank"])
-        .arg(dir)
-        .arg("--measured")
-        .arg(&csv)
-        .arg("--out")
-        .arg(tmp.path().join("out2"))
-        .args(["--refine", "--refine-simulations", "0"])
-        .output()
-        .unwrap();
+    let refused = identify(&tmp.path().join("out2"), "0");
     assert!(!refused.status.success());
     let err = String::from_utf8_lossy(&refused.stderr);
     assert!(err.contains("refine simulations = 0"), "{err}");

@@ -5,6 +5,7 @@ use super::args::GenerateArgs;
 use super::{
     bank, create_output_folder, identify, load_calibration, open_identifier, simulate, write_file,
 };
+use crate::identify::refine::{refine, RefineSettings};
 use crate::identify::{synth, Extras};
 use crate::model::{Flat, Record, Simulator};
 use crate::report::response::{flat_title, response_csv, response_summary};
@@ -65,7 +66,7 @@ pub(super) fn run(out: &Path, bank_dir: &Path, instances: usize) -> Result<()> {
 
     println!("\n4. Identify");
     let (identifier, m) = open_identifier(bank_dir, &measured, None, None)?;
-    let id = identifier.identify(
+    let mut id = identifier.identify(
         &m,
         None,
         Extras {
@@ -73,5 +74,8 @@ pub(super) fn run(out: &Path, bank_dir: &Path, instances: usize) -> Result<()> {
             curves: true,
         },
     )?;
+    // The refined answer beside the bank-only one (`identify --refine`), with the bank's
+    // calibration (the built-in one here).
+    id.refinement = Some(refine(&identifier, &sim, &id, RefineSettings::default())?);
     identify::report(&id, &out.join("identification"), Some(&syn.truth))
 }

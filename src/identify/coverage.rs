@@ -218,6 +218,16 @@ pub fn severity_limits(cal: &CheckedCalibration) -> (f64, f64, f64) {
     )
 }
 
+/// The model a study's measurements are simulated with: the bank's own (`finer` false), or
+/// [`finer_model`] for model-form error.
+pub fn measurement_model(cal: &CheckedCalibration, finer: bool) -> CheckedCalibration {
+    if finer {
+        finer_model(cal)
+    } else {
+        cal.clone()
+    }
+}
+
 /// The finer model that measurements with model-form error are simulated with: twice the
 /// elements per bay and half the time steps of `cal` (issue 11's second acceptance set).
 pub fn finer_model(cal: &CheckedCalibration) -> CheckedCalibration {

@@ -33,15 +33,38 @@ pub fn comparison_table(id: &Identification, truth: Option<&Truth>) -> String {
         "{:<34} {:>6} {:>7}  {:<16} {:<16} {:<14}\n",
         "method", "points", "CMS", "L0 (mm)", "L (mm)", "d (mm)"
     );
-    for f in &id.falsifications {
+    // The refined answer, when there is one, as a row of its own after the method's.
+    let refined: Option<(String, usize, usize, Option<ParamRanges>)> =
+        id.refinement.as_ref().map(|r| {
+            (
+                format!("refined ({} simulations)", r.simulations),
+                id.falsifications.first().map_or(0, |f| f.points),
+                r.survivors,
+                r.ranges.clone(),
+            )
+        });
+    let rows: Vec<(String, usize, usize, Option<ParamRanges>)> = id
+        .falsifications
+        .iter()
+        .take(1)
+        .map(|f| (f.method.clone(), f.points, f.cms_count, f.ranges.clone()))
+        .chain(refined)
+        .chain(
+            id.falsifications
+                .iter()
+                .skip(1)
+                .map(|f| (f.method.clone(), f.points, f.cms_count, f.ranges.clone())),
+        )
+        .collect();
+    for (method, points, cms_count, ranges) in &rows {
         s += &format!(
             "{:<34} {:>6} {:>7}  {:<16} {:<16} {:<14}\n",
-            f.method,
-            f.points,
-            f.cms_count,
-            range_text(&f.ranges, |r| r.l0_mm, 0),
-            range_text(&f.ranges, |r| r.length_mm, 0),
-            range_text(&f.ranges, |r| r.depth_mm, 2)
+            method,
+            points,
+            cms_count,
+            range_text(ranges, |r| r.l0_mm, 0),
+            range_text(ranges, |r| r.length_mm, 0),
+            range_text(ranges, |r| r.depth_mm, 2)
         );
     }
     let rm = &id.residual_minimisation;
@@ -65,13 +88,13 @@ pub fn comparison_table(id: &Identification, truth: Option<&Truth>) -> String {
             "truth: L0 {:.1} mm, L {:.1} mm, d {:.3} mm, X_p {:.3} m\n",
             t.l0_mm, t.length_mm, t.depth_mm, t.impact_position_m
         );
-        for f in &id.falsifications {
-            if let Some(r) = &f.ranges {
+        for (method, _, _, ranges) in &rows {
+            if let Some(r) = ranges {
                 let inside = |x: f64, [lo, hi]: [f64; 2]| lo <= x && x <= hi;
                 let ok = inside(t.length_mm, r.length_mm) && inside(t.depth_mm, r.depth_mm);
                 s += &format!(
                     "  {:<32} truth (L, d) inside its ranges: {}\n",
-                    f.method,
+                    method,
                     if ok { "yes" } else { "NO" }
                 );
             }

@@ -10,7 +10,9 @@
 //! 1. the seeds are the bank's survivors, each with its cell (half-way to its farthest
 //!    neighbour in the stretched metric, [`super::cells`]);
 //! 2. each round simulates its share of the budget uniformly inside the seeds' cells (the
-//!    flat on the seed's wheel; L, d, c, X_p clamped to the population, c < d/2);
+//!    flat on the seed's wheel; L, d, c, X_p clamped to the population, c < d/2), the seeds
+//!    whose cells reach deepest or shallowest in d four times as often as the others (the L0
+//!    bounds are decided there);
 //! 3. the new flats and the seeds form a local population: neighbours in the same stretched
 //!    metric (sensitivities per mm × the local box), cells as in the bank, the same
 //!    falsification at the same points and thresholds (EIP and envelope points, per-point
@@ -64,9 +66,15 @@ pub struct RefineSettings {
     pub kappa: Option<f64>,
     /// How the refined answer is formed.
     pub mode: RefineMode,
-    /// The last round judges the simulated flats at every sample of every sensor window
-    /// (Šídák over all of them) instead of at the bank-only answer's points.
-    pub whole_record: bool,
+    /// `Some(w)`: the last round judges the simulated flats at every sample of every sensor
+    /// window (w = 0), or at the extremes over ±w samples around every sample, Šídák over all
+    /// of them, instead of at the bank-only answer's points (a studied variant; 0–50).
+    pub whole_record: Option<usize>,
+    /// Each round, the seeds whose cells reach deepest or shallowest in d (an eighth of them
+    /// at each end, at least one) are sampled this many times as often as the others: the
+    /// answer's L0 bounds are decided there (1: an even share; 1–16; default 4, measured in
+    /// docs/performance.md, "Refinement").
+    pub ends_weight: usize,
 }
 
 /// How the refined answer is formed.
@@ -91,7 +99,8 @@ impl Default for RefineSettings {
             seed: 1,
             kappa: None,
             mode: RefineMode::Cells,
-            whole_record: false,
+            whole_record: None,
+            ends_weight: 4,
         }
     }
 }
@@ -119,6 +128,17 @@ impl RefineSettings {
                     "refine witness margin = {margin}: must be 0–10"
                 )));
             }
+        }
+        if let Some(w) = self.whole_record.filter(|&w| w > 50) {
+            return Err(IdentifyError::Invalid(format!(
+                "refine whole-record half-width = {w} samples: must be 0–50"
+            )));
+        }
+        if !(1..=16).contains(&self.ends_weight) {
+            return Err(IdentifyError::Invalid(format!(
+                "refine ends weight = {}: must be 1–16",
+                self.ends_weight
+            )));
         }
         if !(1..=8).contains(&self.rounds) {
             return Err(IdentifyError::Invalid(format!(
@@ -195,8 +215,8 @@ pub fn refine(
     let method_points = cmp.at.len();
     // With the whole record, every simulated flat is read at every sample too (after the
     // method's points); the bank's seeds carry the method's points only.
-    let cmp = if settings.whole_record && settings.mode == RefineMode::Cells {
-        cmp.chain(Comparison::whole_record(identifier, id))
+    let cmp = if let (Some(w), RefineMode::Cells) = (settings.whole_record, settings.mode) {
+        cmp.chain(Comparison::whole_record(identifier, id, w))
     } else {
         cmp
     };
@@ -254,7 +274,12 @@ pub fn refine(
     for round in 0..settings.rounds {
         let budget = settings.simulations / settings.rounds
             + usize::from(round < settings.simulations % settings.rounds);
-        let flats = sample_in_cells(&seeds, budget, pop, &mut state);
+        let flats = sample_in_cells(
+            &weighted_ends(&seeds, settings.ends_weight),
+            budget,
+            pop,
+            &mut state,
+        );
         let predictions = simulate_at(sim, &cmp, &flats)?;
         out.simulations += flats.len();
         let mut members: Vec<Member> = std::mem::take(&mut seeds);
@@ -271,7 +296,7 @@ pub fn refine(
         );
         // The last round with the whole record: the simulated flats only (a bank seed has
         // its method points, not its record), judged at every sample.
-        let final_whole = settings.whole_record && round + 1 == settings.rounds;
+        let final_whole = settings.whole_record.is_some() && round + 1 == settings.rounds;
         if final_whole {
             members.retain(|m| m.g.len() == cmp.at.len());
         }
@@ -317,6 +342,35 @@ pub fn refine(
         seeds = kept;
     }
     Ok(finish(out, t0, identifier))
+}
+
+/// `seeds`, with those whose cells reach deepest or shallowest in d repeated so that each
+/// appears `weight` times (an eighth of the seeds at each end, at least one).
+fn weighted_ends(seeds: &[Member], weight: usize) -> Vec<Member> {
+    let mut out = seeds.to_vec();
+    if weight <= 1 || seeds.is_empty() {
+        return out;
+    }
+    let q = (seeds.len() / 8).max(1);
+    let mut by: Vec<usize> = (0..seeds.len()).collect();
+    let mut ends: Vec<usize> = Vec::new();
+    by.sort_by(|&a, &b| {
+        (seeds[b].x[1] + seeds[b].half[1]).total_cmp(&(seeds[a].x[1] + seeds[a].half[1]))
+    });
+    ends.extend(&by[..q]);
+    by.sort_by(|&a, &b| {
+        (seeds[a].x[1] - seeds[a].half[1]).total_cmp(&(seeds[b].x[1] - seeds[b].half[1]))
+    });
+    ends.extend(
+        by[..q]
+            .iter()
+            .filter(|i| !ends.contains(i))
+            .collect::<Vec<_>>(),
+    );
+    for _ in 1..weight {
+        out.extend(ends.iter().map(|&i| seeds[i].clone()));
+    }
+    out
 }
 
 /// Stamps the time and writes the summary and the maintenance hint.

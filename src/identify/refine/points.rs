@@ -60,11 +60,26 @@ impl Comparison {
         c
     }
 
-    /// Every sample of every sensor window of the identification, with thresholds at
-    /// `φ^(1/N)` for the N samples (Šídák over the whole record).
-    pub(super) fn whole_record(identifier: &Identifier, id: &Identification) -> Comparison {
+    /// Every sample of every sensor window of the identification (`half_width` 0), or the
+    /// maximum and the minimum over ±`half_width` samples around every sample (window extremes
+    /// move little when an impact moves by a sample or two, as the envelope points), with
+    /// thresholds at `φ^(1/N)` for the N points (Šídák over the whole record).
+    pub(super) fn whole_record(
+        identifier: &Identifier,
+        id: &Identification,
+        half_width: usize,
+    ) -> Comparison {
         let axes = &identifier.bank().metadata().sensors;
-        let total: usize = id.series.iter().map(|s| s.values_kn.len()).sum();
+        let kinds: &[Option<bool>] = if half_width == 0 {
+            &[None]
+        } else {
+            &[Some(true), Some(false)]
+        };
+        let total: usize = id
+            .series
+            .iter()
+            .map(|s| s.values_kn.len().saturating_sub(2 * half_width) * kinds.len())
+            .sum();
         let p = id.phi.powf(1.0 / total.max(1) as f64);
         let mut c = Comparison {
             axes: axes.clone(),
@@ -78,11 +93,17 @@ impl Comparison {
                 .iter()
                 .position(|a| a.name == ser.sensor)
                 .expect("identified sensors are the bank's");
-            for (k, &y) in ser.values_kn.iter().enumerate() {
-                c.at.push((axis, k, k, None));
-                c.measured.push(y);
-                c.thresholds.push(identifier.thresholds(y, p));
-                c.curves.push(identifier.threshold_curve(y, p));
+            let n = ser.values_kn.len();
+            for k in half_width..n.saturating_sub(half_width) {
+                for &kind in kinds {
+                    let at = (axis, k - half_width, k + half_width, kind);
+                    let y = Comparison::value(at, |j| ser.values_kn[j] as f32) as f64;
+                    let y = if half_width == 0 { ser.values_kn[k] } else { y };
+                    c.at.push(at);
+                    c.measured.push(y);
+                    c.thresholds.push(identifier.thresholds(y, p));
+                    c.curves.push(identifier.threshold_curve(y, p));
+                }
             }
         }
         c
@@ -245,16 +266,7 @@ mod tests {
         let columns: Vec<Vec<f32>> = (0..3)
             .map(|q| members.iter().map(|m| m.g[q]).collect())
             .collect();
-        let points: Vec<Point> = (0..3)
-            .map(|q| Point {
-                predictions: &columns[q],
-                measured_kn: cmp.measured[q],
-                low_kn: cmp.thresholds[q].0,
-                high_kn: cmp.thresholds[q].1,
-                curve: Some(&cmp.curves[q]),
-            })
-            .collect();
-        let kept = falsify(&points, None);
+        let kept = falsify(&cmp.points(&columns, 0..3), None);
         let witnesses: Vec<u32> = (0..members.len() as u32)
             .filter(|&k| score[k as usize] <= 0.0)
             .collect();
