@@ -36,6 +36,7 @@ pub(super) fn sample_in_cells(
         })
         .collect()
 }
+
 /// The cells of a local population: its [`NEIGHBOURS`] nearest members on the same wheel, in
 /// the stretched metric of [`crate::bank::neighbours::cell_weights`] over the population's
 /// own box (sensitivity per mm × the box's span along each axis).

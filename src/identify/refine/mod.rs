@@ -182,6 +182,7 @@ pub struct Refinement {
     /// answer's stands.
     pub maintenance_hint: String,
 }
+
 /// A flat of the local population with its predictions at the comparison points.
 #[derive(Debug, Clone)]
 pub(super) struct Member {
@@ -193,6 +194,7 @@ pub(super) struct Member {
     /// Predictions at the comparison points, in the order of [`Comparison::points`].
     pub(super) g: Vec<f32>,
 }
+
 /// Refines an identification made by `identifier` (see the module docs). `sim` must be the
 /// bank calibration's simulator. An identification with no survivor is returned as it is
 /// (nothing to refine).

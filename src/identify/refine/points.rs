@@ -148,6 +148,7 @@ impl Comparison {
         }
     }
 }
+
 /// Simulates `flats` (in lockstep batches sorted by their first strike, on the rayon pool)
 /// and returns each one's values at the comparison points, in the order given.
 pub(super) fn simulate_at(
@@ -196,6 +197,7 @@ pub(super) fn simulate_at(
     }
     Ok(out)
 }
+
 /// How far each member lies outside its band at the worst comparison point, in half-widths
 /// of the measured force's thresholds there (≤ 0: it passes every point with no widening,
 /// κ = 0, judged as falsification judges: the prediction's own thresholds where it is the
@@ -229,6 +231,7 @@ pub(super) fn misfit(cmp: &Comparison, members: &[Member]) -> Vec<f64> {
         })
         .collect()
 }
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -125,6 +125,35 @@ fn empty_cms_says_the_model_class_is_refuted() {
     assert!(html.contains("verdict refuted"));
 }
 
+/// A refined answer (`identify --refine`) is shown under the result, escaped, and survives the
+/// JSON round trip that `wheelflat report --from` relies on.
+#[test]
+fn a_refined_answer_is_shown_and_read_back() {
+    let mut id = synthetic();
+    id.refinement = Some(crate::identify::refine::Refinement {
+        ranges: id.falsifications[0].ranges.clone(),
+        survivors: 7,
+        simulations: 640,
+        rounds: Vec::new(),
+        stopped_early: false,
+        time_ms: 1200.0,
+        summary: "refined: 7 flats survive & L0 < 45 mm".into(),
+        maintenance_hint: "refined verdict: inspect".into(),
+    });
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let files = write_identification_report(&id, tmp.path()).expect("write report");
+    let html = fs::read_to_string(&files.html).expect("read html");
+    assert!(html.contains("<h2>Refined</h2>"));
+    assert!(html.contains("refined: 7 flats survive &amp; L0 &lt; 45 mm"));
+    let back: Identification =
+        serde_json::from_str(&fs::read_to_string(&files.json).expect("read json")).expect("json");
+    assert_eq!(back.refinement, id.refinement);
+    // Without one, the JSON has no `refinement` key (files written before it read the same).
+    let plain = synthetic();
+    let text = serde_json::to_string(&plain).expect("json");
+    assert!(!text.contains("refinement"));
+}
+
 #[test]
 fn degenerate_input_still_draws() {
     let mut id = synthetic();
