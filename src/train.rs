@@ -16,6 +16,7 @@
 //! 12.5 m apart within a car and 9 m between cars.
 
 use crate::bank::Bank;
+use crate::identify::refine::{refine, RefineSettings};
 use crate::identify::synth::{draw_sources, resolution_step_kn, MARGIN_SAMPLES};
 use crate::identify::{
     Extras, FlatFreeCheck, Identification, Identifier, IdentifyError, Measurement, Severity,
@@ -416,8 +417,12 @@ pub struct WheelRow {
     pub l0_mm: Option<[f64; 2]>,
     /// Surviving instances with the flat on this wheel.
     pub cms_count: usize,
-    /// Severity class (rule in [`Severity::of_wheel`]).
+    /// Severity class (rule in [`Severity::of_wheel`]; from the refined range when there is
+    /// one).
     pub severity: Severity,
+    /// The refined L0 range (mm), with `train --refine` ([`refine_wheels`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refined_l0_mm: Option<[f64; 2]>,
 }
 
 /// One bogie's outcome.
@@ -540,6 +545,7 @@ pub fn identify_train(
                 l0_mm: l0,
                 cms_count: count,
                 severity: Severity::of_wheel(flat, l0, s.urgent_l0_mm, s.inspect_l0_mm),
+                refined_l0_mm: None,
             });
         }
         results.push(BogieResult {
@@ -561,6 +567,59 @@ pub fn identify_train(
         warnings,
         total_ms: clock.elapsed().as_secs_f64() * 1e3,
     })
+}
+
+/// Refines every wheel with a flat (`train --refine`, [`crate::identify::refine`]): the
+/// bogie's identification restricted to the instances with the flat on that wheel is refined
+/// with its bank's calibration, the row gets the refined L0 range beside the bank-only one and
+/// its severity from the refined upper bound. `identifiers[b]` is bogie b's bank, as given to
+/// [`identify_train`].
+pub fn refine_wheels(
+    result: &mut TrainResult,
+    identifiers: &[&Identifier],
+    settings: RefineSettings,
+) -> Result<(), IdentifyError> {
+    settings.check()?;
+    let started = Instant::now();
+    let mut sims: Vec<(String, Simulator)> = Vec::new();
+    for (b, bogie) in result.bogies.iter().enumerate() {
+        let (Some(id), Some(identifier)) = (&bogie.identification, identifiers.get(b)) else {
+            continue;
+        };
+        let bank_id = identifier.bank().metadata().bank_id.clone();
+        if !sims.iter().any(|(k, _)| *k == bank_id) {
+            let cal = identifier.bank().metadata().calibration.clone().check();
+            let sim = cal
+                .map_err(|e| e.to_string())
+                .and_then(|c| Simulator::new(&c).map_err(|e| e.to_string()))
+                .map_err(|e| {
+                    IdentifyError::Invalid(format!("bank {bank_id}: its stored calibration: {e}"))
+                })?;
+            sims.push((bank_id.clone(), sim));
+        }
+        let sim = &sims
+            .iter()
+            .find(|(k, _)| *k == bank_id)
+            .expect("added above")
+            .1;
+        let s = identifier.settings();
+        for row in result
+            .wheels
+            .iter_mut()
+            .filter(|w| w.bogie == bogie.bogie && w.flat == "yes")
+        {
+            let mut one = id.clone();
+            one.cms.retain(|c| c.flat_wheel == row.wheel);
+            if let Some(r) = refine(identifier, sim, &one, settings)?.ranges {
+                row.refined_l0_mm = Some(r.l0_mm);
+                row.severity =
+                    Severity::of_wheel("yes", Some(r.l0_mm), s.urgent_l0_mm, s.inspect_l0_mm);
+            }
+        }
+    }
+    result.severity_rule += "; with --refine, by the upper bound of the wheel's refined L0 range";
+    result.total_ms += started.elapsed().as_secs_f64() * 1e3;
+    Ok(())
 }
 
 #[cfg(test)]

@@ -73,7 +73,7 @@ fn flats_are_found_on_the_right_wheels_and_good_wheels_stay_good() {
     let csv = wheelflat::report::train::table_csv(&r);
     assert_eq!(csv.lines().count(), 25);
     assert!(csv.starts_with(
-        "car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity,speed_km_per_h,bank_speed_km_per_h\n"
+        "car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity,speed_km_per_h,bank_speed_km_per_h,refined_l0_min_mm,refined_l0_max_mm\n"
     ));
 }
 
@@ -111,6 +111,35 @@ fn the_commands_write_the_report_and_refuse_a_bank_that_does_not_cover_a_train()
     for f in ["train.csv", "train.json", "train.html"] {
         assert!(report.join(f).metadata().unwrap().len() > 500, "{f}");
     }
+
+    // `--refine`: the wheel with the flat gets a refined range beside its bank-only one
+    // (`bank-only → refined` in the table, `refined_l0_mm` in the JSON), the others none.
+    let refined = tmp.path().join("refined");
+    let out = wheelflat()
+        .arg("train")
+        .arg("--bank")
+        .arg(dir)
+        .arg("--recording")
+        .arg(&rec)
+        .arg("--triggers")
+        .arg(&triggers)
+        .arg("--out")
+        .arg(&refined)
+        .args(["--refine", "--refine-simulations", "32"])
+        .assert()
+        .success();
+    let text = String::from_utf8(out.get_output().stdout.clone()).unwrap();
+    assert!(text.contains(" → ["), "{text}");
+    assert!(text.contains("refined L0 range"), "{text}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(refined.join("train.json")).unwrap())
+            .unwrap();
+    let rows = json["wheels"].as_array().unwrap();
+    for w in rows {
+        let refined_row = w.get("refined_l0_mm").is_some();
+        assert_eq!(refined_row, w["flat"] == "yes", "{w}");
+    }
+    assert!(rows.iter().any(|w| w["flat"] == "yes"));
 
     // A bad trigger file is named with its line.
     let bad = tmp.path().join("bad.csv");

@@ -380,6 +380,13 @@ pub(super) struct TrainArgs {
     /// Report folder: `train.csv`, `train.json`, `train.html`.
     #[arg(long)]
     pub out: PathBuf,
+    /// Also refine every wheel with a flat (about 1.2 s a wheel on 2 cores); its severity is
+    /// then taken from the refined L0 range (docs/train.md).
+    #[arg(long)]
+    pub refine: bool,
+    /// Simulations of each wheel's refinement (1–20000).
+    #[arg(long, default_value_t = 640, requires = "refine")]
+    pub refine_simulations: usize,
 }
 
 // `audit`.

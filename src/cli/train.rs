@@ -12,7 +12,11 @@ use std::path::{Path, PathBuf};
 /// `.html` and prints the table.
 pub(super) fn run(a: &TrainArgs) -> Result<()> {
     let mut members = super::open_members(&a.bank, None)?;
-    let result = identify_pass(&mut members, &a.recording, &a.triggers)?;
+    let refine = a.refine.then_some(crate::identify::refine::RefineSettings {
+        simulations: a.refine_simulations,
+        ..Default::default()
+    });
+    let result = identify_pass(&mut members, &a.recording, &a.triggers, refine)?;
     create_output_folder(&a.out)?;
     let written = write_outputs(&result, &a.out)?;
     print!("{}", crate::report::train::table_text(&result));
@@ -40,11 +44,13 @@ pub(super) fn run(a: &TrainArgs) -> Result<()> {
 
 /// One train pass, a recording and its trigger file, against a bank or a bank family: each
 /// bogie's speed (from its trigger pair) picks the member it is compared with, which must
-/// cover a train ([`crate::train::check_coverage`]).
+/// cover a train ([`crate::train::check_coverage`]). With `refine`, every wheel with a flat
+/// is refined ([`crate::train::refine_wheels`]).
 pub(super) fn identify_pass(
     members: &mut Members,
     recording: &Path,
     triggers: &Path,
+    refine: Option<crate::identify::refine::RefineSettings>,
 ) -> Result<TrainResult> {
     let rate = members.family().sample_rate_hz;
     let text = super::read_text(recording, super::MAX_MEASUREMENT_BYTES, "recording")?;
@@ -77,7 +83,11 @@ pub(super) fn identify_pass(
         picked.push(k);
     }
     let identifiers: Vec<&Identifier> = picked.iter().map(|&k| members.get(k)).collect();
-    Ok(crate::train::identify_train(&identifiers, &m, &bogies)?)
+    let mut result = crate::train::identify_train(&identifiers, &m, &bogies)?;
+    if let Some(settings) = refine {
+        crate::train::refine_wheels(&mut result, &identifiers, settings)?;
+    }
+    Ok(result)
 }
 
 /// Writes `train.csv`, `train.json` and `train.html` into `out` (each atomically); their

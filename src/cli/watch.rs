@@ -94,7 +94,7 @@ fn identify_one(
     out: &Path,
 ) -> Result<String> {
     if let Some(triggers) = triggers {
-        let result = super::train::identify_pass(&mut open.members, path, triggers)?;
+        let result = super::train::identify_pass(&mut open.members, path, triggers, None)?;
         std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
         super::train::write_outputs(&result, out)?;
         let flats: Vec<String> = result

@@ -7,7 +7,7 @@ use crate::train::TrainResult;
 /// The table as CSV.
 pub fn table_csv(r: &TrainResult) -> String {
     let mut s = String::from(
-        "car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity,speed_km_per_h,bank_speed_km_per_h\n",
+        "car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity,speed_km_per_h,bank_speed_km_per_h,refined_l0_min_mm,refined_l0_max_mm\n",
     );
     for w in &r.wheels {
         let (lo, hi) = w.l0_mm.map_or((String::new(), String::new()), |[a, b]| {
@@ -19,8 +19,13 @@ pub fn table_csv(r: &TrainResult) -> String {
             .map_or((f64::NAN, f64::NAN), |b| {
                 (b.speed_km_per_h, b.bank_speed_km_per_h)
             });
+        let (rlo, rhi) = w
+            .refined_l0_mm
+            .map_or((String::new(), String::new()), |[a, b]| {
+                (format!("{a:.1}"), format!("{b:.1}"))
+            });
         s += &format!(
-            "{},{},{},{},{lo},{hi},{},{},{v:.2},{vb}\n",
+            "{},{},{},{},{lo},{hi},{},{},{v:.2},{vb},{rlo},{rhi}\n",
             w.car,
             w.bogie,
             w.wheel.name(),
@@ -62,18 +67,28 @@ pub fn speeds_line(r: &TrainResult) -> String {
     format!("speeds: {}", parts.join("; "))
 }
 
+/// A wheel's L0 range, and its refined range after an arrow when it was refined:
+/// `[36, 51] → [39, 45]`.
+fn l0_text(w: &crate::train::WheelRow) -> String {
+    let range = |[a, b]: [f64; 2]| format!("[{a:.0}, {b:.0}]");
+    match (w.l0_mm, w.refined_l0_mm) {
+        (Some(l), Some(r)) => format!("{} → {}", range(l), range(r)),
+        (Some(l), None) => range(l),
+        _ => "—".into(),
+    }
+}
+
 /// The table for people.
 pub fn table_text(r: &TrainResult) -> String {
     let mut s = format!(
-        "{:<4} {:<6} {:<9} {:<8} {:<16} {:>7}  {}\n",
+        "{:<4} {:<6} {:<9} {:<8} {:<20} {:>7}  {}\n",
         "car", "bogie", "wheel", "flat", "L0 (mm)", "CMS", "severity"
     );
+    // (A refined wheel's L0 column reads `bank-only → refined`.)
     for w in &r.wheels {
-        let l0 = w
-            .l0_mm
-            .map_or("—".to_string(), |[a, b]| format!("[{a:.0}, {b:.0}]"));
+        let l0 = l0_text(w);
         s += &format!(
-            "{:<4} {:<6} {:<9} {:<8} {:<16} {:>7}  {}\n",
+            "{:<4} {:<6} {:<9} {:<8} {:<20} {:>7}  {}\n",
             w.car,
             w.bogie,
             w.wheel.name(),
@@ -100,9 +115,7 @@ pub fn table_html(r: &TrainResult) -> String {
         r.total_ms
     );
     for w in &r.wheels {
-        let l0 = w
-            .l0_mm
-            .map_or("—".to_string(), |[a, b]| format!("[{a:.0}, {b:.0}]"));
+        let l0 = esc(&l0_text(w));
         h += &format!(
             "<tr class=\"{}\"><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td><td>{}</td><td>{l0}</td><td class=\"num\">{}</td><td>{}</td></tr>\n",
             esc(w.severity.as_str()),
