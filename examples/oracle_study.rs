@@ -14,7 +14,10 @@
 //! `cargo run --release --example oracle_study -- BANK CASES SEED [same|finer] [SAMPLES] [eip|all]`
 //! (`all`: every PIP candidate as well as the envelope points, Šídák over all of them).
 use rayon::prelude::*;
-use std::path::Path;
+#[path = "common/study.rs"]
+mod study;
+
+use study::Study;
 use wheelflat::identify::coverage::{self, judge, method_line, severity_class, Judged};
 use wheelflat::identify::result::ParamRanges;
 use wheelflat::identify::{Extras, Identifier};
@@ -42,15 +45,16 @@ fn uniform(state: &mut u64) -> f64 {
 }
 
 fn main() {
-    let a: Vec<String> = std::env::args().collect();
-    let bank = wheelflat::bank::Bank::open(Path::new(&a[1])).expect("bank");
-    let cases: usize = a[2].parse().unwrap();
-    let seed: u64 = a[3].parse().unwrap();
-    let finer = a.get(4).is_some_and(|s| s == "finer");
-    let samples: usize = a.get(5).map_or(480, |s| s.parse().unwrap());
-    let all = a.get(6).is_some_and(|s| s == "all");
-    let cal = bank.metadata().calibration.clone().check().unwrap();
-    let meas_cal = coverage::measurement_model(&cal, finer);
+    let study = Study::from_args("[SAMPLES] [eip|all]");
+    let (cases, seed) = (study.cases, study.seed);
+    let samples: usize = study.arg(5, 480);
+    let all = study.flag(6, "all");
+    let Study {
+        bank,
+        cal,
+        meas_cal,
+        ..
+    } = study;
     let axes = bank.metadata().sensors.clone();
     let radius = cal.vehicle.wheel_radius_m;
     let (insp, urg, top) = coverage::severity_limits(&cal);

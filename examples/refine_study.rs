@@ -6,21 +6,21 @@
 //!
 //! (The box-filling refinement measured on 2026-11-23 is this file's earlier version, in git
 //! history before 2026-11-25; docs/decisions.md has its numbers.)
-use std::path::Path;
+#[path = "common/study.rs"]
+mod study;
+
+use study::Study;
 use wheelflat::identify::coverage::{self, judge, method_line, severity_class, Judged};
 use wheelflat::identify::refine::{refine, RefineMode, RefineSettings};
 use wheelflat::identify::{Extras, Identifier};
 use wheelflat::model::Simulator;
 
 fn main() {
-    let a: Vec<String> = std::env::args().collect();
-    let bank = wheelflat::bank::Bank::open(Path::new(&a[1])).expect("bank");
-    let cases: usize = a[2].parse().unwrap();
-    let seed: u64 = a[3].parse().unwrap();
-    let finer = a.get(4).is_some_and(|s| s == "finer");
+    let study = Study::from_args("[SIMULATIONS] [ROUNDS]");
+    let (cases, seed) = (study.cases, study.seed);
     let settings = RefineSettings {
-        simulations: a.get(5).map_or(640, |s| s.parse().unwrap()),
-        rounds: a.get(6).map_or(2, |s| s.parse().unwrap()),
+        simulations: study.arg(5, 640),
+        rounds: study.arg(6, 2),
         kappa: std::env::var("KAPPA").ok().map(|v| v.parse().unwrap()),
         mode: match std::env::var("WITNESS") {
             Ok(m) => RefineMode::Witnesses {
@@ -32,8 +32,12 @@ fn main() {
         ends_weight: std::env::var("ENDS").map_or(4, |w| w.parse().unwrap()),
         ..RefineSettings::default()
     };
-    let cal = bank.metadata().calibration.clone().check().unwrap();
-    let meas_cal = coverage::measurement_model(&cal, finer);
+    let Study {
+        bank,
+        cal,
+        meas_cal,
+        ..
+    } = study;
     let (insp, urg, top) = coverage::severity_limits(&cal);
     let sim = Simulator::new(&cal).unwrap();
     let id = Identifier::new(bank, cal.identification.clone()).unwrap();

@@ -11,19 +11,23 @@
 //! so the count is a floor.
 //!
 //! `cargo run --release --example severity_bound -- BANK CASES SEED [same|finer] [MAX_CHECKED]`
-use std::path::Path;
+#[path = "common/study.rs"]
+mod study;
+
+use study::Study;
 use wheelflat::identify::coverage::{self, severity_class};
 use wheelflat::identify::{Extras, Identifier};
 
 fn main() {
-    let a: Vec<String> = std::env::args().collect();
-    let bank = wheelflat::bank::Bank::open(Path::new(&a[1])).expect("bank");
-    let cases: usize = a[2].parse().unwrap();
-    let seed: u64 = a[3].parse().unwrap();
-    let finer = a.get(4).is_some_and(|s| s == "finer");
-    let max_checked: usize = a.get(5).map_or(400, |s| s.parse().unwrap());
-    let cal = bank.metadata().calibration.clone().check().unwrap();
-    let meas_cal = coverage::measurement_model(&cal, finer);
+    let study = Study::from_args("[MAX_CHECKED]");
+    let (cases, seed) = (study.cases, study.seed);
+    let max_checked: usize = study.arg(5, 400);
+    let Study {
+        bank,
+        cal,
+        meas_cal,
+        ..
+    } = study;
     let (insp, urg, _) = coverage::severity_limits(&cal);
     let id = Identifier::new(bank, cal.identification.clone()).unwrap();
     let axes = id.bank().metadata().sensors.clone();

@@ -93,19 +93,23 @@ fn the_commands_write_the_report_and_refuse_a_bank_that_does_not_cover_a_train()
     let triggers = tmp.path().join("train.triggers.csv");
     assert!(triggers.exists() && tmp.path().join("train.truth.json").exists());
 
+    let train = |out: &std::path::Path, extra: &[&str]| {
+        wheelflat()
+            .arg("train")
+            .arg("--bank")
+            .arg(dir)
+            .arg("--recording")
+            .arg(&rec)
+            .arg("--triggers")
+            .arg(&triggers)
+            .arg("--out")
+            .arg(out)
+            .args(extra)
+            .assert()
+            .success()
+    };
     let report = tmp.path().join("report");
-    let out = wheelflat()
-        .arg("train")
-        .arg("--bank")
-        .arg(dir)
-        .arg("--recording")
-        .arg(&rec)
-        .arg("--triggers")
-        .arg(&triggers)
-        .arg("--out")
-        .arg(&report)
-        .assert()
-        .success();
+    let out = train(&report, &[]);
     let text = String::from_utf8(out.get_output().stdout.clone()).unwrap();
     assert!(text.contains("12 bogies, 24 wheels"), "{text}");
     for f in ["train.csv", "train.json", "train.html"] {
@@ -115,19 +119,7 @@ fn the_commands_write_the_report_and_refuse_a_bank_that_does_not_cover_a_train()
     // `--refine`: the wheel with the flat gets a refined range beside its bank-only one
     // (`bank-only → refined` in the table, `refined_l0_mm` in the JSON), the others none.
     let refined = tmp.path().join("refined");
-    let out = wheelflat()
-        .arg("train")
-        .arg("--bank")
-        .arg(dir)
-        .arg("--recording")
-        .arg(&rec)
-        .arg("--triggers")
-        .arg(&triggers)
-        .arg("--out")
-        .arg(&refined)
-        .args(["--refine", "--refine-simulations", "32"])
-        .assert()
-        .success();
+    let out = train(&refined, &["--refine", "--refine-simulations", "32"]);
     let text = String::from_utf8(out.get_output().stdout.clone()).unwrap();
     assert!(text.contains(" → ["), "{text}");
     assert!(text.contains("refined L0 range"), "{text}");
