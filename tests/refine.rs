@@ -169,3 +169,44 @@ fn identify_refine_reports_beside_the_bank_only_answer() {
     assert!(err.contains("refine simulations = 0"), "{err}");
     assert!(!tmp.path().join("out2").join("identification.json").exists());
 }
+
+/// `watch --refine` refines every answer: the result JSON carries the refinement and the log
+/// line its L0 range.
+#[test]
+fn watch_refine_refines_each_answer() {
+    let (dir, cal) = small_bank();
+    let tmp = tempfile::tempdir().unwrap();
+    let inbox = tmp.path().join("inbox");
+    std::fs::create_dir_all(&inbox).unwrap();
+    std::fs::write(
+        inbox.join("m.csv"),
+        common::narrow_measurement(cal, 5, true),
+    )
+    .unwrap();
+    let out = tmp.path().join("out");
+    let run = wheelflat()
+        .args(["watch", "--once", "--bank"])
+        .arg(dir)
+        .arg("--inbox")
+        .arg(&inbox)
+        .arg("--out")
+        .arg(&out)
+        .args(["--refine", "--refine-simulations", "48"])
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{log}{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(
+        log.contains("m.csv ok") && log.contains("Refined: L0 in ["),
+        "{log}"
+    );
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("m").join("identification.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(json["refinement"]["simulations"], 48);
+}

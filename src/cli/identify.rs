@@ -4,7 +4,7 @@ use super::args::{CompareArgs, IdentifyArgs};
 use super::open_identifier;
 use crate::identify::refine::{refine, RefineSettings};
 use crate::identify::synth::Truth;
-use crate::identify::{Extras, Identification};
+use crate::identify::{Extras, Identification, Identifier};
 use crate::report::tables::{comparison_table, identification_text};
 use anyhow::{Context, Result};
 use std::path::Path;
@@ -24,13 +24,7 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
     };
     let mut id = identifier.identify(&m, i.sensors.as_deref(), extras)?;
     if a.refine {
-        let cal = identifier.bank().metadata().calibration.clone().check()?;
-        let sim = crate::model::Simulator::new(&cal)?;
-        let settings = RefineSettings {
-            simulations: a.refine_simulations,
-            ..RefineSettings::default()
-        };
-        id.refinement = Some(refine(&identifier, &sim, &id, settings)?);
+        refine_into(&identifier, &mut id, a.refine_simulations)?;
     }
     if a.report {
         return report(&id, &a.out, None);
@@ -43,6 +37,29 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
         json.display(),
         json.display()
     );
+    Ok(())
+}
+
+/// Refines `id` ([`crate::identify::refine`]) with `simulations` new flats and the
+/// identifier's bank calibration, and keeps the result in `id.refinement`.
+pub(super) fn refine_into(
+    identifier: &Identifier,
+    id: &mut Identification,
+    simulations: usize,
+) -> Result<()> {
+    let cal = identifier
+        .bank()
+        .metadata()
+        .calibration
+        .clone()
+        .check()
+        .context("the bank's stored calibration")?;
+    let sim = crate::model::Simulator::new(&cal)?;
+    let settings = RefineSettings {
+        simulations,
+        ..RefineSettings::default()
+    };
+    id.refinement = Some(refine(identifier, &sim, id, settings)?);
     Ok(())
 }
 

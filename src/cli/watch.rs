@@ -94,7 +94,11 @@ fn identify_one(
     out: &Path,
 ) -> Result<String> {
     if let Some(triggers) = triggers {
-        let result = super::train::identify_pass(&mut open.members, path, triggers, None)?;
+        let refine = a.refine.then_some(crate::identify::refine::RefineSettings {
+            simulations: a.refine_simulations,
+            ..Default::default()
+        });
+        let result = super::train::identify_pass(&mut open.members, path, triggers, refine)?;
         std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
         super::train::write_outputs(&result, out)?;
         let flats: Vec<String> = result
@@ -114,14 +118,21 @@ fn identify_one(
         ));
     }
     let (m, k) = super::read_measurement(&mut open.members, path, None)?;
-    let id = open
-        .members
-        .get(k)
-        .identify(&m, a.sensors.as_deref(), Extras::NONE)?;
+    let identifier = open.members.get(k);
+    let mut id = identifier.identify(&m, a.sensors.as_deref(), Extras::NONE)?;
+    if a.refine {
+        super::identify::refine_into(identifier, &mut id, a.refine_simulations)?;
+    }
     crate::report::identify::write_identification_json(&id, out)
         .with_context(|| format!("cannot write the result in {}", out.display()))?;
+    let refined = id
+        .refinement
+        .as_ref()
+        .and_then(|r| r.ranges.as_ref())
+        .map(|r| format!(" Refined: L0 in [{:.0}, {:.0}] mm.", r.l0_mm[0], r.l0_mm[1]))
+        .unwrap_or_default();
     Ok(format!(
-        "{} km/h against the {} km/h bank: {}",
+        "{} km/h against the {} km/h bank: {}{refined}",
         m.speed_km_per_h.unwrap_or(f64::NAN),
         id.speed.bank_km_per_h,
         id.summary
