@@ -225,9 +225,9 @@ pub fn refine(
 
     // Seeds: the bank's survivors with their cells and their stored predictions.
     let mut columns: Vec<usize> = Vec::new();
-    let mut spans: Vec<(usize, usize)> = Vec::new(); // (first column, count) per point
+    let mut firsts: Vec<usize> = Vec::new(); // each point's first column in `columns`
     for &(axis, a, b, _) in &cmp.at[..method_points] {
-        spans.push((columns.len(), b - a + 1));
+        firsts.push(columns.len());
         columns.extend((a..=b).map(|k| bank.sample_index(axis, k)));
     }
     let stored = bank.read_columns(&columns)?;
@@ -241,8 +241,8 @@ pub fn refine(
                 .map_or([0.0; 4], |r| r.cells.half_extent(k));
             let g = cmp.at[..method_points]
                 .iter()
-                .zip(&spans)
-                .map(|(&at, &(first, _))| Comparison::value(at, |j| stored[first + j - at.1][k]))
+                .zip(&firsts)
+                .map(|(&at, &first)| Comparison::value(at, |j| stored[first + j - at.1][k]))
                 .collect();
             Member {
                 x: [s.length_mm, s.depth_mm, s.curvature_mm, s.impact_position_m],
