@@ -31,11 +31,7 @@ fn main() {
         AlignedPoints::Eip
     };
     let cal = bank.metadata().calibration.clone().check().unwrap();
-    let meas_cal = if finer {
-        coverage::finer_model(&cal)
-    } else {
-        cal.clone()
-    };
+    let meas_cal = coverage::measurement_model(&cal, finer);
     let id = Identifier::new(bank, cal.identification.clone()).unwrap();
     let t0 = std::time::Instant::now();
     let cells = id.aligned_cells(st.reach_m);

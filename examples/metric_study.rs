@@ -41,11 +41,7 @@ fn main() {
     let params = bank.read_parameters().unwrap();
     let graph = neighbour_graph_weighted(&params, &cal.population, weights);
     let id = Identifier::with_neighbours(bank, settings.clone(), Some(graph)).unwrap();
-    let meas_cal = if finer {
-        coverage::finer_model(&cal)
-    } else {
-        cal.clone()
-    };
+    let meas_cal = coverage::measurement_model(&cal, finer);
     let (insp, urg, top) = coverage::severity_limits(&cal);
     println!(
         "weights {weights:?}, κ {}, envelope {} a sensor ± {} samples",

@@ -22,11 +22,7 @@ fn main() {
     let use_all = a.get(6).is_none_or(|s| s == "all");
     let kappa: f64 = a.get(7).map_or(0.5, |s| s.parse().unwrap());
     let cal = bank.metadata().calibration.clone().check().unwrap();
-    let meas_cal = if finer {
-        coverage::finer_model(&cal)
-    } else {
-        cal.clone()
-    };
+    let meas_cal = coverage::measurement_model(&cal, finer);
     let params = bank.read_parameters().unwrap();
     let pop = cal.population.clone();
     let radius = cal.vehicle.wheel_radius_m;

@@ -16,7 +16,7 @@
 //! 12.5 m apart within a car and 9 m between cars.
 
 use crate::bank::Bank;
-use crate::identify::refine::{refine, RefineSettings};
+use crate::identify::refine::{bank_simulator, refine, RefineSettings};
 use crate::identify::synth::{draw_sources, resolution_step_kn, MARGIN_SAMPLES};
 use crate::identify::{
     Extras, FlatFreeCheck, Identification, Identifier, IdentifyError, Measurement, Severity,
@@ -588,14 +588,7 @@ pub fn refine_wheels(
         };
         let bank_id = identifier.bank().metadata().bank_id.clone();
         if !sims.iter().any(|(k, _)| *k == bank_id) {
-            let cal = identifier.bank().metadata().calibration.clone().check();
-            let sim = cal
-                .map_err(|e| e.to_string())
-                .and_then(|c| Simulator::new(&c).map_err(|e| e.to_string()))
-                .map_err(|e| {
-                    IdentifyError::Invalid(format!("bank {bank_id}: its stored calibration: {e}"))
-                })?;
-            sims.push((bank_id.clone(), sim));
+            sims.push((bank_id.clone(), bank_simulator(identifier)?));
         }
         let sim = &sims
             .iter()

@@ -93,23 +93,26 @@ fn the_commands_write_the_report_and_refuse_a_bank_that_does_not_cover_a_train()
     let triggers = tmp.path().join("train.triggers.csv");
     assert!(triggers.exists() && tmp.path().join("train.truth.json").exists());
 
-    let train = |out: &std::path::Path, extra: &[&str]| {
+    // `train` on this recording with a bank, a trigger file, an output folder and more options.
+    let train = |bank: &std::path::Path,
+                 triggers: &std::path::Path,
+                 out: &std::path::Path,
+                 extra: &[&str]| {
         wheelflat()
             .arg("train")
             .arg("--bank")
-            .arg(dir)
+            .arg(bank)
             .arg("--recording")
             .arg(&rec)
             .arg("--triggers")
-            .arg(&triggers)
+            .arg(triggers)
             .arg("--out")
             .arg(out)
             .args(extra)
             .assert()
-            .success()
     };
     let report = tmp.path().join("report");
-    let out = train(&report, &[]);
+    let out = train(dir, &triggers, &report, &[]).success();
     let text = String::from_utf8(out.get_output().stdout.clone()).unwrap();
     assert!(text.contains("12 bogies, 24 wheels"), "{text}");
     for f in ["train.csv", "train.json", "train.html"] {
@@ -119,7 +122,13 @@ fn the_commands_write_the_report_and_refuse_a_bank_that_does_not_cover_a_train()
     // `--refine`: the wheel with the flat gets a refined range beside its bank-only one
     // (`bank-only → refined` in the table, `refined_l0_mm` in the JSON), the others none.
     let refined = tmp.path().join("refined");
-    let out = train(&refined, &["--refine", "--refine-simulations", "32"]);
+    let out = train(
+        dir,
+        &triggers,
+        &refined,
+        &["--refine", "--refine-simulations", "32"],
+    )
+    .success();
     let text = String::from_utf8(out.get_output().stdout.clone()).unwrap();
     assert!(text.contains(" → ["), "{text}");
     assert!(text.contains("refined L0 range"), "{text}");
@@ -136,18 +145,7 @@ fn the_commands_write_the_report_and_refuse_a_bank_that_does_not_cover_a_train()
     // A bad trigger file is named with its line.
     let bad = tmp.path().join("bad.csv");
     std::fs::write(&bad, "time_s\n0.5\n0.4\n").unwrap();
-    let err = wheelflat()
-        .arg("train")
-        .arg("--bank")
-        .arg(dir)
-        .arg("--recording")
-        .arg(&rec)
-        .arg("--triggers")
-        .arg(&bad)
-        .arg("--out")
-        .arg(&report)
-        .assert()
-        .failure();
+    let err = train(dir, &bad, &report, &[]).failure();
     let stderr = String::from_utf8(err.get_output().stderr.clone()).unwrap();
     assert!(
         stderr.contains("bad.csv, line 3: trigger time 0.4 s does not increase"),
@@ -158,18 +156,7 @@ fn the_commands_write_the_report_and_refuse_a_bank_that_does_not_cover_a_train()
     let paper = small_calibration(50).check().unwrap();
     let pdir = tmp.path().join("paper-bank");
     bank::generate(&paper, &pdir, &options(8, 8), &Quiet).unwrap();
-    let err = wheelflat()
-        .arg("train")
-        .arg("--bank")
-        .arg(&pdir)
-        .arg("--recording")
-        .arg(&rec)
-        .arg("--triggers")
-        .arg(&triggers)
-        .arg("--out")
-        .arg(&report)
-        .assert()
-        .failure();
+    let err = train(&pdir, &triggers, &report, &[]).failure();
     let stderr = String::from_utf8(err.get_output().stderr.clone()).unwrap();
     assert!(
         stderr.contains("does not cover a train: its population has the flat on the trailing wheel and X_p over 1.00 m of the 2.51 m wheel revolution"),

@@ -5,7 +5,7 @@ use super::args::GenerateArgs;
 use super::{
     bank, create_output_folder, identify, load_calibration, open_identifier, simulate, write_file,
 };
-use crate::identify::refine::{refine, RefineSettings};
+use crate::identify::refine::RefineSettings;
 use crate::identify::{synth, Extras};
 use crate::model::{Flat, Record, Simulator};
 use crate::report::response::{flat_title, response_csv, response_summary};
@@ -74,8 +74,7 @@ pub(super) fn run(out: &Path, bank_dir: &Path, instances: usize) -> Result<()> {
             curves: true,
         },
     )?;
-    // The refined answer beside the bank-only one (`identify --refine`), with the bank's
-    // calibration (the built-in one here).
-    id.refinement = Some(refine(&identifier, &sim, &id, RefineSettings::default())?);
+    // The refined answer beside the bank-only one (`identify --refine`).
+    identify::refine_into(&identifier, &mut id, RefineSettings::default().simulations)?;
     identify::report(&id, &out.join("identification"), Some(&syn.truth))
 }

@@ -2,7 +2,7 @@
 
 use super::args::{CompareArgs, IdentifyArgs};
 use super::open_identifier;
-use crate::identify::refine::{refine, RefineSettings};
+use crate::identify::refine::{bank_simulator, refine, RefineSettings};
 use crate::identify::synth::Truth;
 use crate::identify::{Extras, Identification, Identifier};
 use crate::report::tables::{comparison_table, identification_text};
@@ -47,14 +47,7 @@ pub(super) fn refine_into(
     id: &mut Identification,
     simulations: usize,
 ) -> Result<()> {
-    let cal = identifier
-        .bank()
-        .metadata()
-        .calibration
-        .clone()
-        .check()
-        .context("the bank's stored calibration")?;
-    let sim = crate::model::Simulator::new(&cal)?;
+    let sim = bank_simulator(identifier)?;
     let settings = RefineSettings {
         simulations,
         ..RefineSettings::default()

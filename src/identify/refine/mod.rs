@@ -195,8 +195,24 @@ pub(super) struct Member {
     pub(super) g: Vec<f32>,
 }
 
+/// The simulator of the bank's own calibration, which [`refine`] needs.
+pub fn bank_simulator(identifier: &Identifier) -> Result<Simulator, IdentifyError> {
+    let bank = identifier.bank().metadata();
+    bank.calibration
+        .clone()
+        .check()
+        .map_err(|e| e.to_string())
+        .and_then(|c| Simulator::new(&c).map_err(|e| e.to_string()))
+        .map_err(|e| {
+            IdentifyError::Invalid(format!(
+                "bank {}: its stored calibration: {e}",
+                bank.bank_id
+            ))
+        })
+}
+
 /// Refines an identification made by `identifier` (see the module docs). `sim` must be the
-/// bank calibration's simulator. An identification with no survivor is returned as it is
+/// bank calibration's simulator ([`bank_simulator`]). An identification with no survivor is returned as it is
 /// (nothing to refine).
 pub fn refine(
     identifier: &Identifier,
