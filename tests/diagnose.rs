@@ -132,24 +132,34 @@ fn the_suite_subset_names_hidden_effects_and_stays_quiet_otherwise() {
     let (dir, cal) = small_bank();
     let id = Identifier::new(Bank::open(&dir).unwrap(), cal.identification.clone()).unwrap();
     let mut seen_kinds: Vec<std::mem::Discriminant<Effect>> = Vec::new();
-    let mut clean_done = false;
+    let (mut clean_done, mut pair_done, mut coloured_done) = (false, false, false);
+    // The first case of every effect kind measured with the bank's own model, one clean
+    // case, one with AR(1) noise at twice the table's σ, one pair (a pad and a clock
+    // offset), the one outside the library.
     let cases: Vec<suite::Case> = suite::cases()
         .into_iter()
         .filter(|c| match &c.hidden {
-            Hidden::Effect(e) => {
+            Hidden::Effect(e) if !c.finer => {
                 let k = std::mem::discriminant(e);
                 let first = !seen_kinds.contains(&k);
                 seen_kinds.push(k);
                 first
             }
-            Hidden::Clean => !std::mem::replace(&mut clean_done, true),
+            Hidden::Effect(_) => false,
+            // The pair of a sleeper effect and a clock offset (the full suite's other pairs, and
+            // their misses, are in docs/performance.md#diagnosis-round-two).
+            Hidden::Pair(..) => {
+                c.name.starts_with("pad 16") && !std::mem::replace(&mut pair_done, true)
+            }
+            Hidden::Clean if c.noise.ar1 > 0.0 => !std::mem::replace(&mut coloured_done, true),
+            Hidden::Clean => !c.finer && !std::mem::replace(&mut clean_done, true),
             Hidden::NotInLibrary(_) => true,
         })
         .collect();
     assert_eq!(
         cases.len(),
-        12,
-        "ten kinds, one clean, one outside the library"
+        15,
+        "eleven kinds, one clean, one coloured noise, one pair, one outside the library"
     );
     let tmp = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("diagnose-suite-local");
     let mut outcomes = Vec::new();
@@ -169,10 +179,19 @@ fn the_suite_subset_names_hidden_effects_and_stays_quiet_otherwise() {
     }
     let hidden: Vec<_> = outcomes
         .iter()
-        .filter(|o| matches!(o.hidden, Hidden::Effect(_)))
+        .filter(|o| matches!(o.hidden, Hidden::Effect(_) | Hidden::Pair(..)))
         .collect();
     let right = hidden.iter().filter(|o| o.pass).count();
-    // Acceptance: ≥ 90 % named right (9 of 10 here).
+    // The second flat: named, its true L0 inside the range reported for it.
+    let second = outcomes
+        .iter()
+        .find_map(|o| o.second_flat_l0_mm)
+        .expect("the subset holds a second flat");
+    match second {
+        (truth, Some([lo, hi])) => assert!(lo <= truth && truth <= hi, "{truth} vs [{lo}, {hi}]"),
+        (truth, None) => panic!("no L0 range for the second flat (true {truth} mm)"),
+    }
+    // Acceptance: ≥ 90 % named right (12 of 12 here would be the issue's ≥ 95 %).
     assert!(
         right * 10 >= 9 * hidden.len(),
         "named right {right} of {}",
@@ -181,9 +200,9 @@ fn the_suite_subset_names_hidden_effects_and_stays_quiet_otherwise() {
     // No false alarm on clean data; the effect outside the library is not named.
     for o in outcomes
         .iter()
-        .filter(|o| !matches!(o.hidden, Hidden::Effect(_)))
+        .filter(|o| !matches!(o.hidden, Hidden::Effect(_) | Hidden::Pair(..)))
     {
-        assert!(o.named.is_none(), "{}: named {:?}", o.case, o.named);
+        assert!(o.named.is_empty(), "{}: named {:?}", o.case, o.named);
     }
     // Every effect named and added shrinks the gap at least 3×.
     for o in hidden.iter().filter(|o| o.pass) {
@@ -325,4 +344,63 @@ fn the_diagnose_command_reports_clean_data_and_names_a_missing_file() {
     assert!(!run.status.success());
     assert!(stderr.contains("no-such.csv"), "{stderr}");
     assert!(!out2.exists());
+}
+
+#[test]
+fn a_speed_line_beyond_the_bank_is_diagnosed_from_the_record_and_identify_still_refuses_it() {
+    // The train ran 10 % faster than the 50 km/h bank and the file says so (55 km/h):
+    // `identify` refuses (no bank covers 55 km/h); `diagnose` takes the record as it is and
+    // names the speed from the data, saying what its line said.
+    let (dir, cal) = small_bank();
+    let tmp = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("diagnose-speed-line");
+    let _ = std::fs::remove_dir_all(&tmp);
+    std::fs::create_dir_all(&tmp).unwrap();
+    let mut doc = cal.document().clone();
+    doc.effects = vec![Effect::SpeedDeviation { fraction: 0.10 }];
+    let hidden = doc.check().unwrap();
+    let flat = Flat::from_mm(66.0, 0.52, 0.06, 12.37).unwrap();
+    let syn = synth::synthesize(&hidden, &flat, 48, true).unwrap();
+    let csv_text = syn
+        .csv
+        .replace("# speed_km_per_h = 50\n", "# speed_km_per_h = 55\n");
+    assert_ne!(csv_text, syn.csv, "the speed line was rewritten");
+    let csv = tmp.join("fast.csv");
+    std::fs::write(&csv, &csv_text).unwrap();
+    let run = |command: &str| {
+        let mut c = std::process::Command::new(wheelflat_path());
+        c.args([command, "--bank"])
+            .arg(&dir)
+            .arg("--measured")
+            .arg(&csv);
+        c.arg("--out").arg(tmp.join(command));
+        if command == "diagnose" {
+            c.arg("--no-local-bank");
+        }
+        c.output().unwrap()
+    };
+    let refused = run("identify");
+    assert!(!refused.status.success());
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(stderr.contains("55"), "{stderr}");
+    let diagnosed = run("diagnose");
+    let stdout = String::from_utf8_lossy(&diagnosed.stdout);
+    println!("{stdout}{}", String::from_utf8_lossy(&diagnosed.stderr));
+    assert!(diagnosed.status.success());
+    assert!(stdout.contains("the speed line says 55 km/h"), "{stdout}");
+    assert!(
+        stdout.contains("missing effect: speed_deviation"),
+        "{stdout}"
+    );
+    // The record's speed within 0.5 km/h (1 %) of the 55 km/h it ran at.
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("the record's speed: "))
+        .expect("the record's speed is printed");
+    let v: f64 = line["the record's speed: ".len()..]
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!((v - 55.0).abs() < 0.5, "{line}");
 }

@@ -547,3 +547,75 @@ fn a_voided_sleeper_under_a_sensor_shows_in_its_pad_force_and_converges_in_time(
     assert!((pc / pf - 1.0).abs() < 0.01, "{pc} vs {pf}");
     assert!(coarse.pad_force_n.iter().flatten().all(|v| v.is_finite()));
 }
+
+#[test]
+fn a_second_flat_on_a_good_wheel_is_the_flat_itself_and_adds_to_a_flat_on_the_other_wheel() {
+    // The second flat's drop is the flat's trajectory (paper Eq. 9) on its wheel, with the
+    // same fine steps around its strikes: on a good wheel it must reproduce a run of that
+    // flat as *the* flat bit for bit.
+    let flat = Flat::from_mm(55.0, 0.4, 0.05, 12.35).unwrap();
+    let as_flat = run(vec![], Some(&flat.on_wheel(WheelPosition::Trailing)));
+    let as_effect = run(
+        vec![Effect::SecondFlat {
+            wheel: WheelPosition::Trailing,
+            length_mm: 55.0,
+            depth_mm: 0.4,
+            curvature_mm: 0.05,
+            impact_position_m: 12.35,
+        }],
+        None,
+    );
+    assert_eq!(as_effect.pad_force_n, as_flat.pad_force_n);
+    assert_eq!(as_effect.contact_force_n, as_flat.contact_force_n);
+    // On the other wheel, the leading one, its strikes show in the leading wheel's contact
+    // force: the impact (above the static load by more than 20 %) comes when the leading
+    // wheel reaches X_p; the trailing wheel's flat alone leaves the leading wheel's contact
+    // force within 5 % of its static load around that time.
+    let main = Flat::from_mm(60.0, 0.5, 0.0, 12.45)
+        .unwrap()
+        .on_wheel(WheelPosition::Trailing);
+    let cal = with(vec![]);
+    let static_n = cal.static_wheel_load_n();
+    let second = Effect::SecondFlat {
+        wheel: WheelPosition::Leading,
+        length_mm: 50.0,
+        depth_mm: 0.4,
+        curvature_mm: 0.0,
+        impact_position_m: 12.9,
+    };
+    let one = run(vec![], Some(&main));
+    let two = run(vec![second], Some(&main));
+    let v = cal.speed_m_per_s();
+    let t_strike = (12.9 - cal.run.leading_wheel_start_m) / v;
+    let rate = cal.output.sample_rate_hz;
+    let around: Vec<usize> = (0..one.len())
+        .filter(|&j| {
+            let t = (one.first_sample + j) as f64 / rate;
+            (t_strike..t_strike + 0.02).contains(&t)
+        })
+        .collect();
+    assert!(!around.is_empty(), "the strike lies in the recording");
+    let peak = |r: &Response| around.iter().map(|&j| contact(r, 0)[j]).fold(0.0, f64::max);
+    assert!(peak(&one) < 1.05 * static_n, "{} vs {static_n}", peak(&one));
+    assert!(peak(&two) > 1.2 * static_n, "{} vs {static_n}", peak(&two));
+}
+
+#[test]
+fn a_second_flat_longer_than_the_wheel_or_not_a_flat_is_refused_by_key() {
+    for (l, d, c) in [(3000.0, 0.4, 0.0), (50.0, -0.1, 0.0), (50.0, 0.4, 0.3)] {
+        let e = Calibration {
+            effects: vec![Effect::SecondFlat {
+                wheel: WheelPosition::Leading,
+                length_mm: l,
+                depth_mm: d,
+                curvature_mm: c,
+                impact_position_m: 12.0,
+            }],
+            ..Default::default()
+        }
+        .check()
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("effects[0]"), "{e}");
+    }
+}

@@ -302,6 +302,18 @@ impl Family {
 
     /// The member a pass at `speed` km/h is compared with: the nearest, if within
     /// [`SPEED_TOLERANCE`]; otherwise an error naming the band.
+    /// The member nearest `speed_km_per_h`, however far (diagnosis, which lets the record
+    /// say what its speed was).
+    pub fn nearest_member(&self, speed_km_per_h: f64) -> usize {
+        (0..self.members.len())
+            .min_by(|&a, &b| {
+                (self.members[a].speed_km_per_h - speed_km_per_h)
+                    .abs()
+                    .total_cmp(&(self.members[b].speed_km_per_h - speed_km_per_h).abs())
+            })
+            .expect("a family has members")
+    }
+
     pub fn member_for(&self, speed_km_per_h: f64) -> Result<usize, SpeedError> {
         if !speed_km_per_h.is_finite() || speed_km_per_h <= 0.0 {
             return Err(SpeedError(format!(

@@ -255,6 +255,12 @@ pub(super) struct SynthArgs {
     /// Seed of the perturbation.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Field-like noise: its standard deviation this many times the table's (one bogie).
+    #[arg(long, default_value_t = 1.0)]
+    pub noise_scale: f64,
+    /// Field-like noise: AR(1) lag-1 correlation, 0 ≤ ρ < 1 (one bogie).
+    #[arg(long, default_value_t = 0.0)]
+    pub noise_ar1: f64,
     /// Measurement CSV to write.
     #[arg(long)]
     pub out: PathBuf,

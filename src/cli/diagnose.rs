@@ -1,7 +1,7 @@
 //! `wheelflat diagnose`: name a model gap, add the effect, identify again.
 
 use super::args::DiagnoseArgs;
-use super::open_identifier;
+use super::open_identifier_nearest;
 use super::progress::Progress;
 use crate::identify::Extras;
 use crate::report::tables::diagnosis_text;
@@ -11,14 +11,18 @@ use anyhow::Result;
 /// the verdict, the stages and the ranking.
 pub(super) fn run(a: &DiagnoseArgs) -> Result<()> {
     let i = &a.input;
-    let (identifier, m) = open_identifier(&i.bank, &i.measured, i.calibration.as_deref(), i.speed)?;
+    let (identifier, m) =
+        open_identifier_nearest(&i.bank, &i.measured, i.calibration.as_deref(), i.speed)?;
     // The fits re-simulate at the bank's speed: they see the pass on the bank's time axis.
     let speed = crate::identify::result::SpeedUse {
         pass_km_per_h: m.speed_km_per_h,
         bank_km_per_h: identifier.bank().metadata().calibration.run.speed_km_per_h,
     };
-    let m = m.at_bank_speed(speed.bank_km_per_h)?.into_owned();
+    let (m, note) = crate::diagnose::on_bank_speed(&m, speed.bank_km_per_h)?;
     println!("{}", crate::report::tables::speed_line(&speed));
+    if let Some(note) = &note {
+        println!("{note}");
+    }
     let sensors = i.sensors.as_deref();
     let id = identifier.identify(&m, sensors, Extras::NONE)?;
     eprintln!(
@@ -40,6 +44,24 @@ pub(super) fn run(a: &DiagnoseArgs) -> Result<()> {
         .collect();
     let files = crate::report::diagnose::write_diagnosis_report(&d, &times, &a.out)?;
     print!("{}", diagnosis_text(&d));
+    let named = d
+        .naming
+        .as_ref()
+        .map(|n| n.named_effects())
+        .unwrap_or_default();
+    for e in &named {
+        if let crate::model::Effect::SpeedDeviation { fraction } = e {
+            println!(
+                "the record's speed: {:.1} km/h (the bank's {} km/h × {:.3}; its speed line: {})",
+                speed.bank_km_per_h * (1.0 + fraction),
+                speed.bank_km_per_h,
+                1.0 + fraction,
+                speed
+                    .pass_km_per_h
+                    .map_or("none".to_string(), |v| format!("{v} km/h"))
+            );
+        }
+    }
     println!(
         "wrote {}, {} and {}{}",
         files.json.display(),

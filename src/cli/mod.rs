@@ -161,7 +161,20 @@ fn open_identifier(
     speed: Option<f64>,
 ) -> Result<(Identifier, Measurement)> {
     let mut members = open_members(bank_dir, calibration)?;
-    let (m, k) = read_measurement(&mut members, measured, speed)?;
+    let (m, k) = read_measurement(&mut members, measured, speed, false)?;
+    Ok((members.take(k), m))
+}
+
+/// [`open_identifier`] for diagnosis: a stated speed beyond every member's band opens the
+/// nearest member instead of refusing (the diagnosis then lets the record say its speed).
+fn open_identifier_nearest(
+    bank_dir: &Path,
+    measured: &Path,
+    calibration: Option<&Path>,
+    speed: Option<f64>,
+) -> Result<(Identifier, Measurement)> {
+    let mut members = open_members(bank_dir, calibration)?;
+    let (m, k) = read_measurement(&mut members, measured, speed, true)?;
     Ok((members.take(k), m))
 }
 
@@ -182,15 +195,16 @@ fn read_measurement(
     members: &mut Members,
     path: &Path,
     speed: Option<f64>,
+    nearest: bool,
 ) -> Result<(Measurement, usize)> {
     let text = read_text(path, MAX_MEASUREMENT_BYTES, "measurement")?;
     let mut m = Measurement::from_csv(path, &text, members.family().sample_rate_hz)?;
     let v = m.pass_speed(speed)?;
     m.speed_km_per_h = Some(v);
-    let k = members
-        .family()
-        .member_for(v)
-        .with_context(|| format!("measurement {}", path.display()))?;
+    let k = match members.family().member_for(v) {
+        Err(_) if nearest => members.family().nearest_member(v),
+        found => found.with_context(|| format!("measurement {}", path.display()))?,
+    };
     members.open_member(k)?;
     Ok((m, k))
 }

@@ -2,7 +2,7 @@
 
 use super::args::{parse_effect, parse_flat_on, SynthArgs};
 use super::{load_calibration, write_file};
-use crate::identify::synth::{synthesize, Synthetic};
+use crate::identify::synth::{synthesize_with_noise, FieldNoise, Synthetic};
 use crate::model::CheckedCalibration;
 use crate::report::response::flat_title;
 use crate::train::{default_flats, synthesize_train, TrainSpec};
@@ -28,13 +28,21 @@ pub(super) fn run(a: &SynthArgs) -> Result<()> {
         cal = doc.check().context("the effects given with --effect")?;
     }
     if a.train {
+        if a.noise_scale.to_bits() != 1.0f64.to_bits() || a.noise_ar1.to_bits() != 0.0f64.to_bits()
+        {
+            anyhow::bail!("--noise-scale and --noise-ar1 are for one bogie; a train recording (--train) carries the table's noise");
+        }
         return train(a, &cal);
     }
     let flat = a
         .flat
         .flat()?
         .context("synth needs a flat (drop --no-flat)")?;
-    let syn = synthesize(&cal, &flat, a.seed, !a.no_trigger)?;
+    let noise = FieldNoise {
+        scale: a.noise_scale,
+        ar1: a.noise_ar1,
+    };
+    let syn = synthesize_with_noise(&cal, &flat, a.seed, !a.no_trigger, noise)?;
     let truth_path = a
         .truth
         .clone()

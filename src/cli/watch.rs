@@ -117,7 +117,7 @@ fn identify_one(
             }
         ));
     }
-    let (m, k) = super::read_measurement(&mut open.members, path, None)?;
+    let (m, k) = super::read_measurement(&mut open.members, path, None, false)?;
     let identifier = open.members.get(k);
     let mut id = identifier.identify(&m, a.sensors.as_deref(), Extras::NONE)?;
     if a.refine {

@@ -26,6 +26,9 @@ pub struct NoiseModel {
     pub gain_mean: f64,
     /// Prior standard deviation of `a`.
     pub gain_sd: f64,
+    /// Lag-1 correlation ρ of the noise, an AR(1) (0: independent; see [`super::noise`]).
+    #[serde(default)]
+    pub rho: f64,
 }
 
 impl NoiseModel {
@@ -58,7 +61,13 @@ impl NoiseModel {
             sigma_kn: noise_var.sqrt().max(1e-6),
             gain_mean: (1.0 - model_mean) * (1.0 + meas_mean),
             gain_sd: rel_var.sqrt().max(1e-6),
+            rho: 0.0,
         }
+    }
+
+    /// `x` whitened for this noise, in units of σ ([`super::noise::whiten`]).
+    pub fn whiten(&self, x: &[f64]) -> Vec<f64> {
+        super::noise::whiten(x, self.sigma_kn, self.rho)
     }
 }
 
@@ -89,7 +98,8 @@ pub fn make_flat(v: &FlatVector, wheel: WheelPosition) -> Option<Flat> {
 pub struct Evaluation {
     /// χ² (−2 log-likelihood up to a constant).
     pub chi2: f64,
-    /// Weighted residual vector: per sample `(a_s g − y)/σ`, then per sensor `(a_s − ā)/σ_a`.
+    /// Weighted residual vector: per sample `a_s g − y` whitened ([`NoiseModel::whiten`]; for
+    /// independent noise `(a_s g − y)/σ`), then per sensor `(a_s − ā)/σ_a`.
     pub weighted: Vec<f64>,
     /// Profiled factor per sensor.
     pub gains: Vec<f64>,
@@ -108,6 +118,17 @@ pub struct Problem<'a> {
 }
 
 impl<'a> Problem<'a> {
+    /// The same problem with noise model `noise` (the simulation count carried over).
+    pub fn with_noise(&self, noise: NoiseModel) -> Problem<'a> {
+        Problem {
+            base: self.base.clone(),
+            observed: self.observed,
+            noise,
+            wheel: self.wheel,
+            simulations: AtomicUsize::new(self.simulations()),
+        }
+    }
+
     /// `base`: the bank's calibration (its own effects kept; candidate effects are added).
     pub fn new(
         base: Calibration,
@@ -177,24 +198,27 @@ impl<'a> Problem<'a> {
     /// The misfit of simulated series `g`.
     pub fn misfit(&self, g: Vec<Vec<f64>>) -> Evaluation {
         let NoiseModel {
-            sigma_kn: s,
             gain_mean: m,
             gain_sd: sa,
+            ..
         } = self.noise;
         let mut weighted = Vec::with_capacity(self.samples() + g.len());
         let mut gains = Vec::with_capacity(g.len());
         for (o, gs) in self.observed.iter().zip(&g) {
+            // Whitened (unit-variance) prediction and measurement: the factor scales the
+            // prediction, and whitening is linear, so it is profiled on the whitened series.
+            let (gw, yw) = (self.noise.whiten(gs), self.noise.whiten(&o.values_kn));
             let (mut gy, mut gg) = (0.0, 0.0);
-            for (&gk, &yk) in gs.iter().zip(&o.values_kn) {
+            for (&gk, &yk) in gw.iter().zip(&yw) {
                 gy += gk * yk;
                 gg += gk * gk;
             }
-            let a = self.noise.profiled_gain(gy, gg);
-            weighted.extend(
-                gs.iter()
-                    .zip(&o.values_kn)
-                    .map(|(gk, yk)| (a * gk - yk) / s),
-            );
+            let unit = NoiseModel {
+                sigma_kn: 1.0,
+                ..self.noise
+            };
+            let a = unit.profiled_gain(gy, gg);
+            weighted.extend(gw.iter().zip(&yw).map(|(gk, yk)| a * gk - yk));
             gains.push(a);
         }
         weighted.extend(gains.iter().map(|a| (a - m) / sa));

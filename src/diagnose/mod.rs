@@ -2,190 +2,22 @@
 //! effect ([`name`]), *add* it to the calibration and identify again on a local bank, and show
 //! the gap before and after ([`diagnose`]).
 //!
-//! Locate: the best instance of an identification (the residual-minimisation optimum) is compared
-//! with the measurement at every sample of every sensor. The thresholds are Šídák over all
-//! those samples, `φ^(1/N)`, so that clean data leaves them anywhere with probability ≤ 1 − φ.
-//! They are widened sample by sample by the instance's cell (κ × the largest difference to its
-//! neighbours' predictions, as in falsification). Samples outside are gathered per sensor into time
-//! windows (runs of samples outside, gaps of up to [`MERGE_SAMPLES`] bridged), each with the
-//! track positions of the bogie centre and the wheels.
+//! Locate ([`locate`]), fit the flat alone, estimate the noise from the record ([`noise`]),
+//! name up to two effects ([`name`], [`select`]), and add them and identify again.
 
 pub mod fit;
+pub mod library;
+pub mod locate;
 pub mod name;
+pub mod noise;
+pub mod select;
 pub mod suite;
 
 use crate::audit::AuditError;
 use crate::identify::{Identification, Identifier};
 use serde::{Deserialize, Serialize};
 
-/// Runs of samples outside the thresholds closer than this are one window.
-pub const MERGE_SAMPLES: usize = 5;
-
-/// A time window where the residual leaves the thresholds.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct GapWindow {
-    /// Bank time span (s).
-    pub time_s: [f64; 2],
-    /// Bogie-centre position over the span (m along the rail).
-    pub bogie_centre_m: [f64; 2],
-    /// Leading and trailing wheel positions at the window's largest excess (m).
-    pub wheels_m: [f64; 2],
-    /// Samples outside in the window.
-    pub samples_outside: usize,
-    /// Largest excess beyond the thresholds (kN).
-    pub max_outside_kn: f64,
-}
-
-/// One sensor's disagreement.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct SensorGap {
-    /// Sensor.
-    pub sensor: String,
-    /// Samples compared.
-    pub samples: usize,
-    /// Samples outside the thresholds.
-    pub samples_outside: usize,
-    /// Expected outside by chance, `(1 − p)·samples` (independent samples; systematic errors
-    /// make exceedances cluster, but their total probability stays ≤ 1 − φ).
-    pub expected_by_chance: f64,
-    /// RMS of the residual (kN).
-    pub rms_residual_kn: f64,
-    /// RMS of the excess over the thresholds (0 inside), all samples (kN).
-    pub gap_rms_kn: f64,
-    /// Windows where it leaves the thresholds, largest excess first.
-    pub windows: Vec<GapWindow>,
-    /// Residual (prediction − measurement) per sample (kN), for the plot.
-    pub residual_kn: Vec<f64>,
-    /// Thresholds per sample, widened by the instance's cell (kN).
-    pub thresholds_kn: Vec<[f64; 2]>,
-}
-
-/// Where the best instance and the measurement disagree.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Located {
-    /// The instance compared (the residual-minimisation optimum).
-    pub instance: u32,
-    /// Per-sample probability of the thresholds, `φ^(1/N)` over all N samples.
-    pub per_point_probability: f64,
-    /// Per sensor of the measurement.
-    pub sensors: Vec<SensorGap>,
-    /// RMS residual over all samples (kN).
-    pub rms_residual_kn: f64,
-    /// RMS of the excess over the thresholds (0 inside) over all samples (kN): the gap.
-    pub gap_rms_kn: f64,
-    /// Samples outside over all sensors.
-    pub samples_outside: usize,
-    /// Expected by chance over all sensors.
-    pub expected_by_chance: f64,
-}
-
-/// Locates the disagreement of identification `id` (made by `identifier`).
-pub fn locate(identifier: &Identifier, id: &Identification) -> Result<Located, AuditError> {
-    let bank = identifier.bank();
-    let meta = bank.metadata();
-    let cal = &meta.calibration;
-    let best = id.residual_minimisation.instance;
-    let stored = bank.read_instance(best as usize)?;
-    // The instance stands for its cell: its thresholds widen by κ × the largest difference to
-    // its neighbours' predictions, sample by sample, as in falsification.
-    let resolution = identifier.resolution();
-    let neighbours: Vec<crate::bank::StoredInstance> = match resolution {
-        Some(r) => r
-            .cells
-            .neighbours(best as usize)
-            .iter()
-            .map(|&j| bank.read_instance(j as usize))
-            .collect::<Result<_, _>>()?,
-        None => Vec::new(),
-    };
-    let kappa = resolution.map_or(0.0, |r| r.kappa);
-    // Šídák over every sample compared: clean data leaves the thresholds anywhere with
-    // probability ≤ 1 − φ, whatever the correlation the systematic errors bring.
-    let total: usize = id.series.iter().map(|s| s.values_kn.len()).sum();
-    let p = identifier.settings().phi.powf(1.0 / total.max(1) as f64);
-    let v = cal.run.speed_km_per_h / 3.6;
-    let lead0 = cal.run.leading_wheel_start_m;
-    let hb = cal.vehicle.half_wheelbase_m;
-    let mut sensors = Vec::new();
-    let (mut sum2, mut count, mut outside_all, mut expected_all) = (0.0, 0usize, 0usize, 0.0);
-    let mut gap2 = 0.0;
-    for ser in &id.series {
-        let Some(axis) = meta.sensors.iter().position(|a| a.name == ser.sensor) else {
-            continue;
-        };
-        let g = &stored.forces_kn[axis];
-        let time = |k: usize| ser.t0_s + k as f64 / ser.sample_rate_hz;
-        let mut residual = Vec::with_capacity(g.len());
-        let mut thresholds = Vec::with_capacity(g.len());
-        let mut excess = Vec::with_capacity(g.len());
-        for (k, (&gk, &y)) in g.iter().zip(&ser.values_kn).enumerate() {
-            let r = gk as f64 - y;
-            let spread = neighbours
-                .iter()
-                .map(|n| (n.forces_kn[axis][k] - gk).abs() as f64)
-                .fold(0.0, f64::max);
-            let (lo, hi) = identifier.thresholds(y, p);
-            let (lo, hi) = (lo - kappa * spread, hi + kappa * spread);
-            residual.push(r);
-            thresholds.push([lo, hi]);
-            excess.push((r - hi).max(lo - r));
-        }
-        let outside: Vec<usize> = (0..excess.len()).filter(|&k| excess[k] > 0.0).collect();
-        // Windows: runs of outside samples, gaps up to MERGE_SAMPLES bridged.
-        let mut windows: Vec<GapWindow> = Vec::new();
-        let mut start = 0;
-        while start < outside.len() {
-            let mut end = start;
-            while end + 1 < outside.len() && outside[end + 1] - outside[end] <= MERGE_SAMPLES {
-                end += 1;
-            }
-            let (k0, k1) = (outside[start], outside[end]);
-            let kmax = outside[start..=end]
-                .iter()
-                .copied()
-                .max_by(|&a, &b| excess[a].total_cmp(&excess[b]))
-                .expect("a window has samples");
-            let centre = |t: f64| lead0 - hb + v * t;
-            windows.push(GapWindow {
-                time_s: [time(k0), time(k1)],
-                bogie_centre_m: [centre(time(k0)), centre(time(k1))],
-                wheels_m: [centre(time(kmax)) + hb, centre(time(kmax)) - hb],
-                samples_outside: end - start + 1,
-                max_outside_kn: excess[kmax],
-            });
-            start = end + 1;
-        }
-        windows.sort_by(|a, b| b.max_outside_kn.total_cmp(&a.max_outside_kn));
-        let s2: f64 = residual.iter().map(|r| r * r).sum();
-        let e2: f64 = excess.iter().map(|e| e.max(0.0).powi(2)).sum();
-        gap2 += e2;
-        sum2 += s2;
-        count += residual.len();
-        outside_all += outside.len();
-        let expected = (1.0 - p) * residual.len() as f64;
-        expected_all += expected;
-        sensors.push(SensorGap {
-            sensor: ser.sensor.clone(),
-            samples: residual.len(),
-            samples_outside: outside.len(),
-            expected_by_chance: expected,
-            rms_residual_kn: (s2 / residual.len().max(1) as f64).sqrt(),
-            gap_rms_kn: (e2 / residual.len().max(1) as f64).sqrt(),
-            windows,
-            residual_kn: residual,
-            thresholds_kn: thresholds,
-        });
-    }
-    Ok(Located {
-        instance: best,
-        per_point_probability: p,
-        sensors,
-        rms_residual_kn: (sum2 / count.max(1) as f64).sqrt(),
-        gap_rms_kn: (gap2 / count.max(1) as f64).sqrt(),
-        samples_outside: outside_all,
-        expected_by_chance: expected_all,
-    })
-}
+pub use locate::{locate, GapWindow, Located, SensorGap, MERGE_SAMPLES};
 
 /// Options of a diagnosis.
 #[derive(Debug, Clone, PartialEq)]
@@ -198,6 +30,9 @@ pub struct Options {
     pub max_order: u32,
     /// Bank instances (best by χ² over the whole series) the flat-only fit starts from.
     pub starts: usize,
+    /// Estimate the noise from the record ([`noise`]); false keeps the table's independent
+    /// noise (the diagnosis before issue 15, kept to measure against).
+    pub noise_from_data: bool,
 }
 
 impl Default for Options {
@@ -207,6 +42,7 @@ impl Default for Options {
             local_bank_dir: None,
             max_order: 12,
             starts: 4,
+            noise_from_data: true,
         }
     }
 }
@@ -283,6 +119,9 @@ pub struct Diagnosis {
     pub before: Located,
     /// The numbers before.
     pub before_stage: Stage,
+    /// The noise estimated from the record (None when there was nothing to explain).
+    #[serde(default)]
+    pub noise: Option<noise::NoiseEstimate>,
     /// The ranking of the effects (None when there was nothing to explain).
     pub naming: Option<Naming>,
     /// The effect added, when one was named and a local bank asked for.
@@ -404,25 +243,115 @@ pub fn best_bank_instances(
         .collect())
 }
 
-/// Sleepers to try: those of the two sensors with the most samples outside, and their
-/// neighbours.
-fn candidate_sleepers(l: &Located, cal: &crate::model::CheckedCalibration) -> Vec<usize> {
-    let mut by: Vec<&SensorGap> = l.sensors.iter().filter(|s| s.samples_outside > 0).collect();
-    by.sort_by_key(|s| std::cmp::Reverse(s.samples_outside));
-    let bays = cal.track.bays;
-    let mut out = Vec::new();
-    for s in by.iter().take(2) {
-        if let Some(i) = cal.sensor_index(&s.sensor) {
-            let k = cal.sensors.pad[i].sleeper;
-            for kk in [k.saturating_sub(1), k, k + 1] {
-                if (1..bays).contains(&kk) && !out.contains(&kk) {
-                    out.push(kk);
-                }
+/// The L0 range of a named second flat, single or in a pair.
+fn named_second_flat_l0(naming: &Naming, wheel_radius_m: f64) -> Option<[f64; 2]> {
+    let n = naming.samples;
+    match (&naming.second, naming.named) {
+        (Some(s), _) if s.named => {
+            let pair = s.ranking.first()?;
+            if pair.kind == "second_flat" {
+                library::second_flat_l0_mm(pair, "", wheel_radius_m, n)
+            } else if s.first.kind == "second_flat" {
+                library::second_flat_l0_mm(pair, "first: ", wheel_radius_m, n)
+            } else {
+                None
             }
         }
+        (_, Some(i)) if naming.ranking[i].kind == "second_flat" => {
+            library::second_flat_l0_mm(&naming.ranking[i], "", wheel_radius_m, n)
+        }
+        _ => None,
     }
-    out.sort_unstable();
-    out
+}
+
+/// A pass on the bank's time axis for diagnosis, and a note when its speed line was set
+/// aside: within [`crate::bank::family::SPEED_TOLERANCE`] of the bank's speed the pass is resampled
+/// ([`crate::identify::Measurement::at_bank_speed`]); farther, where identification refuses,
+/// diagnosis takes the record as it is, on the bank's time axis, and lets the data speak:
+/// a speed deviation, if named, is the speed the record shows.
+pub fn on_bank_speed(
+    m: &crate::identify::Measurement,
+    bank_km_per_h: f64,
+) -> Result<(crate::identify::Measurement, Option<String>), DiagnoseError> {
+    match (m.at_bank_speed(bank_km_per_h), m.speed_km_per_h) {
+        (Ok(on), _) => Ok((on.into_owned(), None)),
+        (Err(_), Some(line)) => {
+            let mut as_recorded = m.clone();
+            as_recorded.speed_km_per_h = None;
+            Ok((
+                as_recorded,
+                Some(format!(
+                    "the speed line says {line} km/h, {:+.1} % from the bank's {bank_km_per_h} km/h, beyond the {:.0} % a bank covers: diagnosed as recorded on the bank's time axis; a speed deviation, if named, is the record's own speed",
+                    (line / bank_km_per_h - 1.0) * 100.0,
+                    crate::bank::family::SPEED_TOLERANCE * 100.0
+                )),
+            ))
+        }
+        (Err(e), None) => Err(e.into()),
+    }
+}
+
+/// The noise of the record: σ and ρ estimated from the flat-free parts of the flat-only
+/// fit's residual ([`noise`]), and the noise model the fits use from then on.
+fn estimate_noise(
+    problem: &fit::Problem,
+    best: &fit::Fitted,
+    timing: &name::Timing,
+    cal: &crate::model::CheckedCalibration,
+) -> (noise::NoiseEstimate, fit::NoiseModel) {
+    let table = problem.noise();
+    let rate = cal.output.sample_rate_hz;
+    let obs = problem.observed();
+    let flat = [best.x[0], best.x[1], best.x[2], best.x[3]];
+    let v = timing.speed_m_per_s;
+    let t_end = obs
+        .iter()
+        .map(|o| (o.first_sample + o.values_kn.len()) as f64 / rate)
+        .fold(0.0, f64::max);
+    let strikes: Vec<(f64, f64)> = fit::make_flat(&flat, problem.wheel())
+        .map(|f| {
+            let x0 = timing.wheel_start_m;
+            f.strikes_between(x0, x0 + v * t_end, cal.vehicle.wheel_radius_m)
+                .into_iter()
+                .map(|x| {
+                    let t = (x - x0) / v;
+                    (
+                        t - noise::STRIKE_BEFORE_S,
+                        t + f.length_m() / v + noise::STRIKE_AFTER_S,
+                    )
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    let residuals: Vec<Vec<f64>> = obs
+        .iter()
+        .zip(&best.eval.predicted_kn)
+        .zip(&best.eval.gains)
+        .map(|((o, g), a)| o.values_kn.iter().zip(g).map(|(y, g)| y - a * g).collect())
+        .collect();
+    let keep = noise::flat_free(
+        &obs.iter().map(|o| o.first_sample).collect::<Vec<_>>(),
+        &obs.iter().map(|o| o.values_kn.len()).collect::<Vec<_>>(),
+        rate,
+        &strikes,
+    );
+    let found = noise::estimate(&residuals, &keep);
+    let (sigma_hat, rho, pairs) = found.map_or((None, 0.0, 0), |(s, r, n)| (Some(s), r, n));
+    let used = sigma_hat.map_or(table.sigma_kn, |s| s.max(table.sigma_kn));
+    (
+        noise::NoiseEstimate {
+            sigma_table_kn: table.sigma_kn,
+            sigma_estimated_kn: sigma_hat,
+            rho,
+            pairs,
+            sigma_used_kn: used,
+        },
+        fit::NoiseModel {
+            sigma_kn: used,
+            rho,
+            ..table
+        },
+    )
 }
 
 /// Diagnoses identification `id` of measurement `m` (made by `identifier`, with `sensors`):
@@ -450,6 +379,7 @@ pub fn diagnose(
         measurement: id.measurement.clone(),
         before,
         before_stage,
+        noise: None,
         naming: None,
         added: None,
         verdict: String::new(),
@@ -533,29 +463,95 @@ pub fn diagnose(
         out.timings_s = timings;
         return Ok(out);
     }
+    // The noise from the record; the flat alone refitted under it.
+    let (estimate, mut noise_model) = estimate_noise(&problem, &best, &judge.timing, &cal);
+    if !opts.noise_from_data {
+        noise_model = problem.noise();
+    }
+    out.noise = Some(estimate);
+    let problem = problem.with_noise(noise_model);
+    let best = {
+        let eval = |x: &[f64]| problem.evaluate(&[x[0], x[1], x[2], x[3]], &[]);
+        fit::levenberg_marquardt(&flat_params, &best.x, &eval, 6).unwrap_or(best)
+    };
+    let flat0 = [best.x[0], best.x[1], best.x[2], best.x[3]];
+    lap("noise", &mut timings);
+    let bays = cal.track.bays;
     let ctx = name::Context {
-        sleepers: candidate_sleepers(&out.before, &cal),
+        sleepers: (1..bays).collect(),
         sensors: obs.iter().map(|o| o.sensor.clone()).collect(),
         sensor_positions_m: obs
             .iter()
             .filter_map(|o| cal.sensor_index(&o.sensor))
             .map(|i| cal.sensor_position_m(i))
             .collect(),
+        rail_m: [0.0, bays as f64 * cal.track.sleeper_spacing_m],
         wheels: vec![
             crate::model::WheelPosition::Leading,
             crate::model::WheelPosition::Trailing,
         ],
         max_order: opts.max_order,
+        flat: (wheel, flat0[3]),
+        circumference_m: std::f64::consts::TAU * cal.vehicle.wheel_radius_m,
+        // A second flat is often smaller than the population's flats: from 10 mm and 0.05 mm.
+        length_mm: [10.0, cal.population.length_mm[1]],
+        depth_mm: [0.05, cal.population.depth_mm[1]],
     };
     let families = name::families(&ctx);
-    let naming = name::name(&problem, &judge, &families, &flat_params, flat0, &best.eval);
-    lap("name", &mut timings);
+    let mut naming = name::name(&problem, &judge, &families, &flat_params, flat0, &best.eval);
     out.verdict = naming.verdict.clone();
-    if let (Some(i), Some(dir)) = (naming.named, &opts.local_bank_dir) {
-        let c = &naming.ranking[i];
-        let effect = c.effect.clone().expect("a named candidate has an effect");
+    // Two effects: forward selection from the best single one when it is clearly better than
+    // the flat alone but leaves more than noise (a fit that leaves only noise needs nothing
+    // more); when that gives no pair, from the best of the next kind too (the best single
+    // fit may be a stand-in for two).
+    let needs_more = naming.ranking.first().is_some_and(|c| !c.adequate);
+    if naming.evidence_over_none >= name::CLEARLY_BETTER && needs_more {
+        let mut firsts: Vec<&name::Candidate> = Vec::new();
+        for c in &naming.ranking {
+            if firsts.len() < 2 && !firsts.iter().any(|f| f.kind == c.kind) {
+                firsts.push(c);
+            }
+        }
+        let mut chosen: Option<select::SecondStep> = None;
+        for (i, first) in firsts.into_iter().enumerate() {
+            let settled = chosen.as_ref().is_some_and(|s| s.named) || naming.named.is_some();
+            if i > 0 && settled {
+                break;
+            }
+            let step = select::forward(
+                &problem,
+                &judge,
+                &families,
+                &flat_params,
+                first,
+                &naming.ranking,
+            );
+            let pair_bic =
+                |s: &select::SecondStep| s.ranking.first().map_or(f64::INFINITY, |c| c.bic);
+            let better = match &chosen {
+                None => true,
+                Some(c) => (step.named, -pair_bic(&step)) > (c.named, -pair_bic(c)),
+            };
+            if better {
+                chosen = Some(step);
+            }
+        }
+        if let Some(step) = chosen {
+            out.verdict = if step.named {
+                step.verdict.clone()
+            } else {
+                format!("{}; forward selection: {}", naming.verdict, step.verdict)
+            };
+            naming.second = Some(step);
+        }
+    }
+    naming.simulations = problem.simulations();
+    naming.second_flat_l0_mm = named_second_flat_l0(&naming, cal.vehicle.wheel_radius_m);
+    lap("name", &mut timings);
+    let named = naming.named_effects();
+    if let (Some(flat), Some(dir)) = (naming.named_flat(), &opts.local_bank_dir) {
         let mut doc = cal.document().clone();
-        doc.effects.push(effect);
+        doc.effects.extend(named.iter().cloned());
         // The local bank: the fitted flat ± 1.5 cells of the original bank in each parameter
         // (a cell: the population span / instances^(1/4)), within the original ranges.
         let pop = &cal.population;
@@ -564,7 +560,7 @@ pub fn diagnose(
             let (v, w) = (v.clamp(r[0], r[1]), cell * (r[1] - r[0]));
             [(v - w).max(r[0]), (v + w).min(r[1])]
         };
-        let [l, d, cc, xp] = c.flat;
+        let [l, d, cc, xp] = flat;
         doc.population.length_mm = around(l, pop.length_mm);
         doc.population.depth_mm = around(d, pop.depth_mm);
         let mut cr = around(cc, pop.curvature_mm);

@@ -8,14 +8,17 @@
 //! 2. *Effect fit.* Per kind, the two best seeds (of different families where the kind has
 //!    several) are fitted by Levenberg–Marquardt over the effect's parameters, flat held.
 //! 3. *Joint fit.* The best candidate of each of the [`JOINT`] best kinds by BIC, and the best
-//!    kind's second place, are refitted with the flat parameters free as well.
+//!    kind's second place (or, for a kind of one family, its next two starts), are refitted
+//!    with the flat parameters free as well.
 //!
 //! `BIC = χ² + k·ln N + 2·ln M`: k the continuous parameters fitted (4 for the flat plus the
 //! effect's), N the samples compared, M the families of the kind (a uniform prior over the
 //! discrete choices: the more places an effect may sit, the more it must explain).
 
 use super::fit::{levenberg_marquardt, Evaluation, FlatVector, Param, Problem};
-use crate::model::{Effect, WheelPosition};
+pub use super::library::{families, Context, Family};
+use super::library::{location_of, sleeper_of};
+use crate::model::Effect;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -87,6 +90,12 @@ pub struct Candidate {
     pub fit_rms_kn: f64,
     /// Profiled sensor factors.
     pub gains: Vec<f64>,
+    /// Index of its family (for the forward selection; not written out).
+    #[serde(skip)]
+    pub family: usize,
+    /// The flat as fitted, apparent impact position (not written out).
+    #[serde(skip)]
+    pub apparent: [f64; 4],
 }
 
 /// The ranking and the verdict.
@@ -102,6 +111,9 @@ pub struct Naming {
     pub ranking: Vec<Candidate>,
     /// Index into `ranking` of the effect named, if one is.
     pub named: Option<usize>,
+    /// How well the best candidate's place is known ([`place_uncertainty`]).
+    #[serde(default)]
+    pub place: Option<String>,
     /// BIC of the flat alone minus the best's.
     pub evidence_over_none: f64,
     /// BIC of the runner-up (another kind or location) minus the best's.
@@ -110,33 +122,32 @@ pub struct Naming {
     pub verdict: String,
     /// Simulations run.
     pub simulations: usize,
+    /// The forward step to a second effect, when the best single one left more than noise.
+    #[serde(default)]
+    pub second: Option<super::select::SecondStep>,
+    /// The L0 range of a named second flat (mm; [`super::library::second_flat_l0_mm`]).
+    #[serde(default)]
+    pub second_flat_l0_mm: Option<[f64; 2]>,
 }
 
-/// Makes the effect of a family from its fitted parameters.
-type Build = Box<dyn Fn(&[f64]) -> Effect + Send + Sync>;
+impl Naming {
+    /// The effects named: both of a named pair, else the one named, else none.
+    pub fn named_effects(&self) -> Vec<Effect> {
+        match (&self.second, self.named) {
+            (Some(s), _) if s.named => s.effects.clone(),
+            (_, Some(i)) => self.ranking[i].effect.iter().cloned().collect(),
+            _ => Vec::new(),
+        }
+    }
 
-/// A family of an effect kind: one discrete choice, its continuous parameters and seeds.
-pub struct Family {
-    kind: &'static str,
-    location: String,
-    params: Vec<Param>,
-    seeds: Vec<Vec<f64>>,
-    build: Build,
-}
-
-/// Where to look: what the locate step and the calibration say.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Context {
-    /// Sleepers to try for the sleeper effects.
-    pub sleepers: Vec<usize>,
-    /// Sensors measured.
-    pub sensors: Vec<String>,
-    /// Sensor positions along the rail (m).
-    pub sensor_positions_m: Vec<f64>,
-    /// Wheels.
-    pub wheels: Vec<WheelPosition>,
-    /// Highest polygon order tried.
-    pub max_order: u32,
+    /// The flat `[L, d, c (mm), X_p (m)]` fitted with the named effects (None: none named).
+    pub fn named_flat(&self) -> Option<[f64; 4]> {
+        match (&self.second, self.named) {
+            (Some(s), _) if s.named => s.ranking.first().map(|c| c.flat),
+            (_, Some(i)) => Some(self.ranking[i].flat),
+            _ => None,
+        }
+    }
 }
 
 /// What moves the flat's strikes in time: the effects that shift the series in time are fitted
@@ -174,190 +185,9 @@ impl Timing {
     }
 }
 
-/// The library's effects as families to fit.
-pub fn families(ctx: &Context) -> Vec<Family> {
-    let mut out = Vec::new();
-    let ln = f64::ln;
-    for &k in &ctx.sleepers {
-        out.push(Family {
-            kind: "voided_sleeper",
-            location: format!("sleeper {k}"),
-            params: vec![Param::new("gap (mm)", 0.0, 5.0, 0.005)],
-            seeds: vec![vec![0.2], vec![1.0]],
-            build: Box::new(move |p| Effect::VoidedSleeper {
-                sleeper: k,
-                gap_mm: p[0],
-            }),
-        });
-        out.push(Family {
-            kind: "pad_stiffness",
-            location: format!("sleeper {k}"),
-            params: vec![Param::new("ln factor", ln(0.02), ln(50.0), 0.01)],
-            seeds: vec![vec![ln(0.4)], vec![ln(2.5)]],
-            build: Box::new(move |p| Effect::PadStiffness {
-                sleeper: k,
-                factor: p[0].exp(),
-            }),
-        });
-        out.push(Family {
-            kind: "ballast_stiffness",
-            location: format!("sleeper {k}"),
-            params: vec![Param::new("ln factor", ln(0.02), ln(50.0), 0.01)],
-            seeds: vec![vec![ln(0.3)], vec![ln(3.0)]],
-            build: Box::new(move |p| Effect::BallastStiffness {
-                sleeper: k,
-                factor: p[0].exp(),
-            }),
-        });
-    }
-    let lo = ctx
-        .sensor_positions_m
-        .iter()
-        .copied()
-        .fold(f64::INFINITY, f64::min);
-    let hi = ctx
-        .sensor_positions_m
-        .iter()
-        .copied()
-        .fold(f64::NEG_INFINITY, f64::max);
-    let (x0, x1) = (lo - 1.4, hi + 1.4);
-    let mut dip_seeds = Vec::new();
-    let mut x = x0;
-    while x <= x1 + 1e-9 {
-        dip_seeds.push(vec![x, 0.5, 0.5]);
-        x += 0.35;
-    }
-    out.push(Family {
-        kind: "rail_dip",
-        location: "rail".into(),
-        params: vec![
-            Param::new("position (m)", x0, x1, 0.005),
-            Param::new("length (m)", 0.1, 3.0, 0.005),
-            Param::new("depth (mm)", -3.0, 3.0, 0.005),
-        ],
-        seeds: dip_seeds,
-        build: Box::new(|p| Effect::RailDip {
-            position_m: p[0],
-            length_m: p[1],
-            depth_mm: p[2],
-        }),
-    });
-    let quadrature = |a: f64| vec![[a, 0.0], [0.0, a], [-a, 0.0], [0.0, -a]];
-    let mut irr_seeds = Vec::new();
-    for lambda in [0.3, 0.5, 0.8, 1.2, 2.0, 3.0, 5.0] {
-        for [s, c] in quadrature(0.2) {
-            irr_seeds.push(vec![lambda, s, c]);
-        }
-    }
-    out.push(Family {
-        kind: "rail_irregularity",
-        location: "whole rail".into(),
-        params: vec![
-            Param::new("wavelength (m)", 0.2, 6.0, 0.002),
-            Param::new("A·cos φ (mm)", -3.0, 3.0, 0.005),
-            Param::new("A·sin φ (mm)", -3.0, 3.0, 0.005),
-        ],
-        seeds: irr_seeds,
-        build: Box::new(|p| Effect::RailIrregularity {
-            wavelength_m: p[0],
-            amplitude_mm: p[1].hypot(p[2]),
-            phase_deg: p[2].atan2(p[1]).to_degrees(),
-        }),
-    });
-    for &wheel in &ctx.wheels {
-        for order in 1..=ctx.max_order {
-            out.push(Family {
-                kind: "wheel_out_of_round",
-                location: format!("{} wheel, order {order}", wheel.name()),
-                params: vec![
-                    Param::new("A·cos φ (mm)", -3.0, 3.0, 0.005),
-                    Param::new("A·sin φ (mm)", -3.0, 3.0, 0.005),
-                ],
-                seeds: vec![vec![0.1, 0.0], vec![0.0, 0.1]],
-                build: Box::new(move |p| Effect::WheelOutOfRound {
-                    wheel,
-                    order,
-                    amplitude_mm: p[0].hypot(p[1]),
-                    phase_deg: p[1].atan2(p[0]).to_degrees(),
-                }),
-            });
-        }
-    }
-    for name in &ctx.sensors {
-        let sensor = name.clone();
-        out.push(Family {
-            kind: "sensor_gain",
-            location: format!("sensor {name}"),
-            params: vec![Param::new("ln factor", ln(0.2), ln(5.0), 0.005)],
-            seeds: vec![vec![ln(0.7)], vec![ln(1.4)]],
-            build: Box::new(move |p| Effect::SensorGain {
-                sensor: sensor.clone(),
-                factor: p[0].exp(),
-            }),
-        });
-    }
-    out.push(Family {
-        kind: "time_offset",
-        location: "recording clock".into(),
-        params: vec![Param::new("offset (ms)", -30.0, 30.0, 0.05)],
-        seeds: [-10.0, -4.0, -1.5, 1.5, 4.0, 10.0]
-            .iter()
-            .map(|&t| vec![t])
-            .collect(),
-        build: Box::new(|p| Effect::TimeOffset { offset_ms: p[0] }),
-    });
-    out.push(Family {
-        kind: "speed_deviation",
-        location: "train".into(),
-        params: vec![Param::new("fraction", -0.3, 0.3, 5e-4)],
-        seeds: [-0.08, -0.03, 0.03, 0.08]
-            .iter()
-            .map(|&t| vec![t])
-            .collect(),
-        build: Box::new(|p| Effect::SpeedDeviation { fraction: p[0] }),
-    });
-    let mut bounce_seeds = Vec::new();
-    for f in [0.8, 1.2, 1.8, 2.5, 3.5, 5.0] {
-        for [s, c] in quadrature(0.1) {
-            bounce_seeds.push(vec![f, s, c]);
-        }
-    }
-    out.push(Family {
-        kind: "car_body_bounce",
-        location: "car body".into(),
-        params: vec![
-            Param::new("frequency (Hz)", 0.3, 10.0, 0.002),
-            Param::new("a·cos φ", -0.9, 0.9, 0.002),
-            Param::new("a·sin φ", -0.9, 0.9, 0.002),
-        ],
-        seeds: bounce_seeds,
-        build: Box::new(|p| Effect::CarBodyBounce {
-            amplitude: p[1].hypot(p[2]).min(0.95),
-            frequency_hz: p[0],
-            phase_deg: p[2].atan2(p[1]).to_degrees(),
-        }),
-    });
-    out
-}
-
-/// The location of an effect for people (finer than the family's for fitted positions).
-fn location_of(family: &Family, e: &Effect) -> String {
-    match e {
-        Effect::RailDip {
-            position_m,
-            length_m,
-            ..
-        } => format!("x = {position_m:.2} m, {length_m:.2} m long"),
-        Effect::RailIrregularity { wavelength_m, .. } => {
-            format!("whole rail, wavelength {wavelength_m:.2} m")
-        }
-        Effect::CarBodyBounce { frequency_hz, .. } => format!("car body, {frequency_hz:.2} Hz"),
-        _ => family.location.clone(),
-    }
-}
-
-/// Whether two candidates are the same effect in the same place (a dip within a half bay).
-fn same_place(a: &Candidate, b: &Candidate) -> bool {
+/// Whether two candidates are the same effect in the same place: a sleeper effect within one
+/// sleeper, a dip within a half bay, a second flat on the same wheel.
+pub(crate) fn same_place(a: &Candidate, b: &Candidate) -> bool {
     if a.kind != b.kind {
         return false;
     }
@@ -370,12 +200,101 @@ fn same_place(a: &Candidate, b: &Candidate) -> bool {
             Some(Effect::WheelOutOfRound { wheel: w1, .. }),
             Some(Effect::WheelOutOfRound { wheel: w2, .. }),
         ) => w1 == w2 && a.location == b.location,
+        (
+            Some(Effect::SecondFlat { wheel: w1, .. }),
+            Some(Effect::SecondFlat { wheel: w2, .. }),
+        ) => w1 == w2,
         (Some(Effect::RailIrregularity { .. }), Some(Effect::RailIrregularity { .. }))
         | (Some(Effect::CarBodyBounce { .. }), Some(Effect::CarBodyBounce { .. }))
         | (Some(Effect::TimeOffset { .. }), Some(Effect::TimeOffset { .. }))
         | (Some(Effect::SpeedDeviation { .. }), Some(Effect::SpeedDeviation { .. })) => true,
+        (Some(e1), Some(e2)) => match (sleeper_of(e1), sleeper_of(e2)) {
+            (Some(k1), Some(k2)) => k1.abs_diff(k2) <= 1,
+            _ => a.location == b.location,
+        },
         _ => a.location == b.location,
     }
+}
+
+/// How well the place of `best` is known: the places of its kind whose fits come within
+/// [`CLEARLY_BETTER`] of its BIC (`all`, every fit before duplicates were merged), and for a
+/// fitted position its ± 2 standard deviations.
+pub(crate) fn place_uncertainty(best: &Candidate, all: &[Candidate]) -> String {
+    let near: Vec<&Candidate> = all
+        .iter()
+        .filter(|c| c.kind == best.kind && c.bic - best.bic < CLEARLY_BETTER)
+        .collect();
+    let position = |c: &Candidate| match &c.effect {
+        Some(Effect::RailDip { position_m, .. }) => Some(*position_m),
+        Some(Effect::SecondFlat {
+            impact_position_m, ..
+        }) => Some(*impact_position_m),
+        _ => None,
+    };
+    let sd = |c: &Candidate, name: &str| {
+        c.parameters
+            .iter()
+            .find(|p| p.name.starts_with(name))
+            .map(|p| p.sd)
+            .filter(|s| s.is_finite())
+    };
+    if let Some(k) = best.effect.as_ref().and_then(sleeper_of) {
+        let ks: Vec<usize> = near
+            .iter()
+            .filter_map(|c| c.effect.as_ref().and_then(sleeper_of))
+            .collect();
+        let (lo, hi) = (
+            ks.iter().copied().min().unwrap_or(k),
+            ks.iter().copied().max().unwrap_or(k),
+        );
+        if lo == hi {
+            format!("sleeper {k}; no other sleeper within ΔBIC {CLEARLY_BETTER}")
+        } else {
+            format!("sleeper {k}; sleepers {lo}–{hi} within ΔBIC {CLEARLY_BETTER}")
+        }
+    } else if let Some(x) = position(best) {
+        let xs: Vec<f64> = near.iter().filter_map(|c| position(c)).collect();
+        let (lo, hi) = xs.iter().fold((x, x), |(a, b), &v| (a.min(v), b.max(v)));
+        let sd = sd(best, "position").or_else(|| sd(best, "X_p"));
+        format!(
+            "x = {x:.3} m{}; fits within ΔBIC {CLEARLY_BETTER} span {lo:.3}–{hi:.3} m",
+            sd.map_or(String::new(), |s| format!(" ± {:.3} m (2 sd)", 2.0 * s))
+        )
+    } else {
+        best.location.clone()
+    }
+}
+
+/// The seeds (indices into `seeds`, best first) a kind's fits start from: two, of different
+/// families when the kind has several; for families that spread (a dip, a second flat on
+/// each wheel), each family's `spread.2` best at least `spread.1` apart in parameter
+/// `spread.0`.
+pub(crate) fn pick_starts(
+    families: &[Family],
+    seeds: &[(usize, usize)],
+    best_first: &[usize],
+    several: bool,
+) -> Vec<(usize, usize)> {
+    let mut taken: Vec<(usize, usize)> = Vec::new();
+    for &i in best_first {
+        let (f, s) = seeds[i];
+        let fam = &families[f];
+        let clash = match fam.spread {
+            // Spread seeds: up to n of this family, at least d apart in parameter p.
+            Some((p, d, n)) => {
+                let mine: Vec<&(usize, usize)> = taken.iter().filter(|t| t.0 == f).collect();
+                mine.len() >= n
+                    || mine
+                        .iter()
+                        .any(|&&(_, ts)| (fam.seeds[ts][p] - fam.seeds[s][p]).abs() < d)
+            }
+            None => taken.len() >= 2 || (several && taken.iter().any(|t| t.0 == f)),
+        };
+        if !clash {
+            taken.push((f, s));
+        }
+    }
+    taken
 }
 
 /// What the naming needs of the identification besides the fitting problem.
@@ -442,18 +361,7 @@ pub fn name(
             .filter(|&i| families[seeds[i].0].kind == *kind && seed_chi2[i].is_finite())
             .collect();
         of_kind.sort_by(|&a, &b| seed_chi2[a].total_cmp(&seed_chi2[b]));
-        let several = per_kind(kind) > 1;
-        let mut taken: Vec<(usize, usize)> = Vec::new();
-        for i in of_kind {
-            if taken.len() == 2 {
-                break;
-            }
-            if several && taken.iter().any(|t| t.0 == seeds[i].0) {
-                continue;
-            }
-            taken.push(seeds[i]);
-        }
-        starts.extend(taken);
+        starts.extend(pick_starts(families, &seeds, &of_kind, per_kind(kind) > 1));
     }
     let held: Vec<Fit> = starts
         .par_iter()
@@ -510,6 +418,18 @@ pub fn name(
                 && families[held[i].family].location != f0.location
         }) {
             chosen.push(second);
+        }
+        // A kind of one family (a clock, a dip, a bounce) has no second place: its other
+        // starts are refitted with the flat free too, since with the flat held the best start
+        // may sit in a local minimum that another escapes.
+        if per_kind(f0.kind) == 1 {
+            let others: Vec<usize> = order
+                .iter()
+                .copied()
+                .filter(|&i| i != first && held[i].family == held[first].family)
+                .take(2)
+                .collect();
+            chosen.extend(others);
         }
     }
     let joint: Vec<(usize, Option<Fit>)> = chosen
@@ -581,13 +501,15 @@ pub fn name(
             gap_rms_kn: gap,
             fit_rms_kn: fit_rms(problem, &fit.eval),
             gains: fit.eval.gains.clone(),
+            family: fit.family,
+            apparent: fit.apparent,
         }
     };
     let mut ranking: Vec<Candidate> = fits.iter().map(to_candidate).collect();
     ranking.sort_by(|a, b| a.bic.total_cmp(&b.bic));
     // One entry per kind and place: the better fit of duplicates.
     let mut unique: Vec<Candidate> = Vec::new();
-    for c in ranking {
+    for c in ranking.iter().cloned() {
         if !unique.iter().any(|u| same_place(u, &c)) {
             unique.push(c);
         }
@@ -611,14 +533,18 @@ pub fn name(
         gap_rms_kn: gap0,
         fit_rms_kn: fit_rms(problem, none),
         gains: none.gains.clone(),
+        family: usize::MAX,
+        apparent: flat0,
     };
     let (named, over_none, over_runner, verdict) = decide(&unique, &no_effect);
+    let place = unique.first().map(|b| place_uncertainty(b, &ranking));
     Naming {
         criterion: format!(
-            "BIC = χ² + k·ln N + 2·ln M (N = {n} samples; σ = {:.3} kN noise, sensor factor prior {:.3} ± {:.3}); \
+            "BIC = χ² + k·ln N + 2·ln M (N = {n} samples; noise σ = {:.3} kN, AR(1) ρ = {:.2}, sensor factor prior {:.3} ± {:.3}); \
              an effect is named when its BIC is at least {CLEARLY_BETTER} below the flat alone's and the runner-up's \
              (another kind or place), and its fit leaves only noise (Wilson–Hilferty z of χ² ≤ {ADEQUATE_Z})",
             problem.noise().sigma_kn,
+            problem.noise().rho,
             problem.noise().gain_mean,
             problem.noise().gain_sd
         ),
@@ -626,10 +552,13 @@ pub fn name(
         no_effect,
         ranking: unique,
         named,
+        place,
         evidence_over_none: over_none,
         evidence_over_runner_up: over_runner,
         verdict,
         simulations: problem.simulations(),
+        second: None,
+        second_flat_l0_mm: None,
     }
 }
 
@@ -685,8 +614,13 @@ pub fn flat_mm(v: &FlatVector) -> [f64; 4] {
 }
 
 fn fit_rms(problem: &Problem, e: &Evaluation) -> f64 {
-    let s = problem.noise().sigma_kn;
-    let n = problem.samples();
-    let s2: f64 = e.weighted[..n].iter().map(|r| (r * s).powi(2)).sum();
-    (s2 / n.max(1) as f64).sqrt()
+    let mut s2 = 0.0;
+    for ((o, g), a) in problem.observed().iter().zip(&e.predicted_kn).zip(&e.gains) {
+        s2 += g
+            .iter()
+            .zip(&o.values_kn)
+            .map(|(g, y)| (a * g - y).powi(2))
+            .sum::<f64>();
+    }
+    (s2 / problem.samples().max(1) as f64).sqrt()
 }

@@ -1,10 +1,15 @@
 //! The diagnosis acceptance suite: measurements with one effect hidden (every kind of the
-//! library at two places or amplitudes), clean ones, and one with an effect the library does
-//! not hold; each is identified on a bank built without effects and diagnosed. Shared by the
-//! tests (a CI-sized subset) and `examples/diagnose_suite.rs` (all of it).
+//! library at two places or amplitudes, sleeper effects and dips away from the sensors too),
+//! a second flat, two effects at once, clean ones (some with AR(1) noise at twice the table's
+//! σ), one with an effect the library does not hold, and one whose speed line disagrees with
+//! the bank; each is identified on a bank built without effects and diagnosed. A third of the
+//! measurements are simulated with a finer model than the bank's (twice the elements per bay,
+//! half the steps: model-form error present). Shared by the tests (a CI-sized subset) and
+//! `examples/diagnose_suite.rs` (all of it).
 
 use super::{diagnose, DiagnoseError, Diagnosis, Options};
 use crate::bank::Quiet;
+use crate::identify::synth::FieldNoise;
 use crate::identify::{synth, Extras, Identifier, Measurement};
 use crate::model::{Calibration, CheckedCalibration, Effect, Flat, WheelPosition};
 use serde::{Deserialize, Serialize};
@@ -17,6 +22,8 @@ pub enum Hidden {
     Clean,
     /// An effect of the library: must be named, kind and place.
     Effect(Effect),
+    /// Two effects of the library at once: both must be named.
+    Pair(Effect, Effect),
     /// Something outside the library (described): must not be named.
     NotInLibrary(String),
 }
@@ -32,21 +39,34 @@ pub struct Case {
     pub flat: [f64; 4],
     /// Perturbation seed.
     pub seed: u64,
+    /// Measurement simulated with the finer model (model-form error present).
+    pub finer: bool,
+    /// The measurement's noise.
+    pub noise: FieldNoise,
+    /// A speed line (km/h) written instead of the bank's, when the case says the train ran at
+    /// another speed than the bank's.
+    pub speed_line_km_per_h: Option<f64>,
 }
 
 /// Every case of the suite.
 pub fn cases() -> Vec<Case> {
     use Effect::*;
-    let hide = |name: &str, e: Effect, flat: [f64; 4], seed: u64| Case {
+    let case = |name: &str, hidden: Hidden, flat: [f64; 4], seed: u64| Case {
         name: name.to_string(),
-        hidden: Hidden::Effect(e),
+        hidden,
         flat,
         seed,
+        finer: false,
+        noise: FieldNoise::TABLE,
+        speed_line_km_per_h: None,
+    };
+    let hide = |name: &str, e: Effect, flat: [f64; 4], seed: u64| {
+        case(name, Hidden::Effect(e), flat, seed)
     };
     let f1 = [58.0, 0.47, 0.04, 12.41];
     let f2 = [66.0, 0.52, 0.06, 12.37];
     let f3 = [50.0, 0.40, 0.02, 12.45];
-    vec![
+    let mut out = vec![
         hide(
             "voided sleeper 17, 0.3 mm",
             VoidedSleeper {
@@ -205,42 +225,227 @@ pub fn cases() -> Vec<Case> {
             f2,
             24,
         ),
-        Case {
-            name: "clean A".into(),
-            hidden: Hidden::Clean,
-            flat: f1,
-            seed: 25,
+        case("clean A", Hidden::Clean, f1, 25),
+        case("clean B", Hidden::Clean, f2, 26),
+        case("clean C", Hidden::Clean, f3, 27),
+        case(
+            "unsprung mass +40 % (not in the library)",
+            Hidden::NotInLibrary("wheel_mass_kg × 1.4".into()),
+            f1,
+            28,
+        ),
+    ];
+    out.extend(round_two(&case));
+    // A third of the cases, spread over the kinds, measured with the finer model.
+    let finer = [
+        "pad 16 ×0.15",
+        "ballast 18 ×0.2",
+        "dip at 12.95 m, 0.4 m, 1 mm",
+        "irregularity 0.8 m, 0.6 mm",
+        "leading wheel order 5, 0.4 mm",
+        "rps4 gain ×0.55",
+        "clock −15 ms",
+        "speed +5 %",
+        "bounce 25 % at 3 Hz",
+        "clean C",
+        "voided sleeper 13, 0.8 mm",
+        "second flat, leading wheel, L 60 mm",
+        "ballast 18 ×0.3 + speed +5 %",
+        "clean D, finer model",
+        "clean E, finer model",
+    ];
+    for c in &mut out {
+        c.finer |= finer.contains(&c.name.as_str());
+    }
+    out
+}
+
+/// Issue 15's cases: away from the sensors, second flats, pairs, field noise, a speed line.
+fn round_two(case: &dyn Fn(&str, Hidden, [f64; 4], u64) -> Case) -> Vec<Case> {
+    use Effect::*;
+    let f1 = [58.0, 0.47, 0.04, 12.41];
+    let f2 = [66.0, 0.52, 0.06, 12.37];
+    let f3 = [50.0, 0.40, 0.02, 12.45];
+    let one = |name: &str, e: Effect, flat, seed| case(name, Hidden::Effect(e), flat, seed);
+    let two =
+        |name: &str, a: Effect, b: Effect, flat, seed| case(name, Hidden::Pair(a, b), flat, seed);
+    let second = |wheel, l: f64, d: f64, xp: f64| SecondFlat {
+        wheel,
+        length_mm: l,
+        depth_mm: d,
+        curvature_mm: 0.0,
+        impact_position_m: xp,
+    };
+    let ar1 = |name: &str, flat, seed, rho| Case {
+        noise: FieldNoise {
+            scale: 2.0,
+            ar1: rho,
         },
+        ..case(name, Hidden::Clean, flat, seed)
+    };
+    vec![
+        one(
+            "voided sleeper 13, 0.8 mm",
+            VoidedSleeper {
+                sleeper: 13,
+                gap_mm: 0.8,
+            },
+            f1,
+            31,
+        ),
+        one(
+            "voided sleeper 21, 1.0 mm",
+            VoidedSleeper {
+                sleeper: 21,
+                gap_mm: 1.0,
+            },
+            f2,
+            32,
+        ),
+        one(
+            "dip at 9.9 m, 0.3 m, 0.6 mm (outside the sensors)",
+            RailDip {
+                position_m: 9.9,
+                length_m: 0.3,
+                depth_mm: 0.6,
+            },
+            f3,
+            33,
+        ),
+        one(
+            "dip at 14.1 m, 0.3 m, 0.8 mm (outside the sensors)",
+            RailDip {
+                position_m: 14.1,
+                length_m: 0.3,
+                depth_mm: 0.8,
+            },
+            f1,
+            34,
+        ),
+        one(
+            "second flat, leading wheel, L 45 mm",
+            second(WheelPosition::Leading, 45.0, 0.2, 12.9),
+            f1,
+            35,
+        ),
+        one(
+            "second flat, trailing wheel, another angle",
+            second(WheelPosition::Trailing, 40.0, 0.25, 11.6),
+            f2,
+            36,
+        ),
+        one(
+            "second flat, leading wheel, L 60 mm",
+            second(WheelPosition::Leading, 60.0, 0.35, 12.1),
+            f3,
+            37,
+        ),
+        two(
+            "voided sleeper 17 + rps4 gain ×0.6",
+            VoidedSleeper {
+                sleeper: 17,
+                gap_mm: 0.5,
+            },
+            SensorGain {
+                sensor: "rps4".into(),
+                factor: 0.6,
+            },
+            f1,
+            38,
+        ),
+        two(
+            "pad 16 ×0.2 + clock +8 ms",
+            PadStiffness {
+                sleeper: 16,
+                factor: 0.2,
+            },
+            TimeOffset { offset_ms: 8.0 },
+            f2,
+            39,
+        ),
+        two(
+            "dip at 12.95 m + bounce 25 % at 2 Hz",
+            RailDip {
+                position_m: 12.95,
+                length_m: 0.4,
+                depth_mm: 1.0,
+            },
+            CarBodyBounce {
+                amplitude: 0.25,
+                frequency_hz: 2.0,
+                phase_deg: 60.0,
+            },
+            f3,
+            40,
+        ),
+        two(
+            "ballast 18 ×0.3 + speed +5 %",
+            BallastStiffness {
+                sleeper: 18,
+                factor: 0.3,
+            },
+            SpeedDeviation { fraction: 0.05 },
+            f1,
+            41,
+        ),
+        two(
+            "irregularity 0.5 m + voided sleeper 15",
+            RailIrregularity {
+                wavelength_m: 0.5,
+                amplitude_mm: 0.5,
+                phase_deg: 30.0,
+            },
+            VoidedSleeper {
+                sleeper: 15,
+                gap_mm: 0.6,
+            },
+            f2,
+            42,
+        ),
+        ar1("clean, AR(1) ρ 0.5 at 2σ", f1, 43, 0.5),
+        ar1("clean, AR(1) ρ 0.7 at 2σ", f2, 44, 0.7),
+        ar1("clean, AR(1) ρ 0.3 at 2σ", f3, 45, 0.3),
+        case("clean D, finer model", Hidden::Clean, f2, 46),
+        case("clean E, finer model", Hidden::Clean, f3, 47),
         Case {
-            name: "clean B".into(),
-            hidden: Hidden::Clean,
-            flat: f2,
-            seed: 26,
-        },
-        Case {
-            name: "clean C".into(),
-            hidden: Hidden::Clean,
-            flat: f3,
-            seed: 27,
-        },
-        Case {
-            name: "unsprung mass +40 % (not in the library)".into(),
-            hidden: Hidden::NotInLibrary("wheel_mass_kg × 1.4".into()),
-            flat: f1,
-            seed: 28,
+            speed_line_km_per_h: Some(55.0),
+            ..one(
+                "speed +10 %, the line says 55 km/h",
+                SpeedDeviation { fraction: 0.10 },
+                f2,
+                48,
+            )
         },
     ]
 }
 
-/// Whether `named` is `truth`'s kind in `truth`'s place (same sleeper, sensor or wheel; a dip
-/// within half a sleeper bay).
-pub fn same_kind_and_place(named: &Effect, truth: &Effect) -> bool {
+/// Whether `named` is `truth`'s kind in `truth`'s place (issue 15: a sleeper effect within
+/// one sleeper, a dip within 0.2 m, the same sensor or wheel; a second flat on its wheel
+/// striking within 0.2 m of the truth, modulo a revolution of `circumference_m`).
+pub fn same_kind_and_place(named: &Effect, truth: &Effect, circumference_m: f64) -> bool {
     use Effect::*;
     match (named, truth) {
         (VoidedSleeper { sleeper: a, .. }, VoidedSleeper { sleeper: b, .. })
         | (PadStiffness { sleeper: a, .. }, PadStiffness { sleeper: b, .. })
-        | (BallastStiffness { sleeper: a, .. }, BallastStiffness { sleeper: b, .. }) => a == b,
-        (RailDip { position_m: a, .. }, RailDip { position_m: b, .. }) => (a - b).abs() < 0.35,
+        | (BallastStiffness { sleeper: a, .. }, BallastStiffness { sleeper: b, .. }) => {
+            a.abs_diff(*b) <= 1
+        }
+        (RailDip { position_m: a, .. }, RailDip { position_m: b, .. }) => (a - b).abs() <= 0.2,
+        (
+            SecondFlat {
+                wheel: a,
+                impact_position_m: x,
+                ..
+            },
+            SecondFlat {
+                wheel: b,
+                impact_position_m: y,
+                ..
+            },
+        ) => {
+            let off = (x - y).rem_euclid(circumference_m);
+            a == b && off.min(circumference_m - off) <= 0.2
+        }
         (WheelOutOfRound { wheel: a, .. }, WheelOutOfRound { wheel: b, .. }) => a == b,
         (SensorGain { sensor: a, .. }, SensorGain { sensor: b, .. }) => a == b,
         _ => std::mem::discriminant(named) == std::mem::discriminant(truth),
@@ -254,8 +459,14 @@ pub struct Outcome {
     pub case: String,
     /// What was hidden.
     pub hidden: Hidden,
-    /// The effect named, if any.
-    pub named: Option<Effect>,
+    /// The effects named (none, one, or a pair).
+    pub named: Vec<Effect>,
+    /// Measured with the finer model.
+    pub finer: bool,
+    /// The noise estimated from the record.
+    pub noise: Option<super::noise::NoiseEstimate>,
+    /// A hidden second flat's true L0 and the range reported for it (mm).
+    pub second_flat_l0_mm: Option<(f64, Option<[f64; 2]>)>,
     /// The verdict.
     pub verdict: String,
     /// Passed: hidden effect named in its place; clean and out-of-library: nothing named.
@@ -288,21 +499,43 @@ pub struct Outcome {
     pub seconds: f64,
 }
 
-/// Synthesises the case's measurement on `cal` (the bank's calibration, effects added).
+/// Synthesises the case's measurement on `cal` (the bank's calibration, effects added; the
+/// finer model when the case says so).
 pub fn measurement(cal: &CheckedCalibration, case: &Case) -> Result<(Measurement, f64), String> {
     let mut doc: Calibration = cal.document().clone();
     match &case.hidden {
         Hidden::Clean => {}
         Hidden::Effect(e) => doc.effects.push(e.clone()),
+        Hidden::Pair(a, b) => doc.effects.extend([a.clone(), b.clone()]),
         Hidden::NotInLibrary(_) => doc.vehicle.wheel_mass_kg *= 1.4,
     }
     let hidden = doc.check().map_err(|e| e.to_string())?;
+    let hidden = crate::identify::coverage::measurement_model(&hidden, case.finer);
     let [l, d, c, xp] = case.flat;
     let flat = Flat::from_mm(l, d, c, xp).map_err(|e| e.to_string())?;
-    let syn = synth::synthesize(&hidden, &flat, case.seed, true).map_err(|e| e.to_string())?;
-    let m = Measurement::from_csv(Path::new(&case.name), &syn.csv, cal.output.sample_rate_hz)
+    let syn = synth::synthesize_with_noise(&hidden, &flat, case.seed, true, case.noise)
+        .map_err(|e| e.to_string())?;
+    let csv = match case.speed_line_km_per_h {
+        Some(v) => syn.csv.replace(
+            &format!("# speed_km_per_h = {}\n", cal.run.speed_km_per_h),
+            &format!("# speed_km_per_h = {v}\n"),
+        ),
+        None => syn.csv,
+    };
+    let m = Measurement::from_csv(Path::new(&case.name), &csv, cal.output.sample_rate_hz)
         .map_err(|e| e.to_string())?;
     Ok((m, syn.truth.l0_mm))
+}
+
+/// Whether the effects named are the hidden ones (a pair in either order).
+fn named_right(hidden: &Hidden, named: &[Effect], circumference_m: f64) -> bool {
+    let same = |a: &Effect, b: &Effect| same_kind_and_place(a, b, circumference_m);
+    match (hidden, named) {
+        (Hidden::Effect(t), [n]) => same(n, t),
+        (Hidden::Pair(a, b), [x, y]) => (same(x, a) && same(y, b)) || (same(x, b) && same(y, a)),
+        (Hidden::Clean | Hidden::NotInLibrary(_), []) => true,
+        _ => false,
+    }
 }
 
 /// Runs one case: identify on `identifier`'s bank, diagnose, regenerate a local bank of
@@ -314,30 +547,56 @@ pub fn run_case(
     local_dir: &Path,
     local_instances: usize,
 ) -> Result<(Outcome, Diagnosis), DiagnoseError> {
+    run_case_with(
+        identifier,
+        cal,
+        case,
+        &Options {
+            local_instances,
+            local_bank_dir: Some(local_dir.to_path_buf()),
+            ..Options::default()
+        },
+    )
+}
+
+/// [`run_case`] with diagnosis options `opts`.
+pub fn run_case_with(
+    identifier: &Identifier,
+    cal: &CheckedCalibration,
+    case: &Case,
+    opts: &Options,
+) -> Result<(Outcome, Diagnosis), DiagnoseError> {
     let t = std::time::Instant::now();
     let (m, l0) = measurement(cal, case).map_err(DiagnoseError::Other)?;
+    let (m, _note) = super::on_bank_speed(&m, cal.run.speed_km_per_h)?;
     let id = identifier.identify(&m, None, Extras::NONE)?;
-    let opts = Options {
-        local_instances,
-        local_bank_dir: Some(local_dir.to_path_buf()),
-        ..Options::default()
-    };
-    let d = diagnose(identifier, &m, None, &id, &opts, &Quiet)?;
+    let d = diagnose(identifier, &m, None, &id, opts, &Quiet)?;
     let named = d
         .naming
         .as_ref()
-        .and_then(|n| n.named.map(|i| n.ranking[i].effect.clone()))
-        .flatten();
-    let pass = match (&case.hidden, &named) {
-        (Hidden::Effect(t), Some(n)) => same_kind_and_place(n, t),
-        (Hidden::Effect(_), None) => false,
-        (_, named) => named.is_none(),
+        .map(|n| n.named_effects())
+        .unwrap_or_default();
+    let circumference = std::f64::consts::TAU * cal.vehicle.wheel_radius_m;
+    let pass = named_right(&case.hidden, &named, circumference);
+    let hidden_second = match &case.hidden {
+        Hidden::Effect(e) => e.second_flat(),
+        Hidden::Pair(a, b) => a.second_flat().or_else(|| b.second_flat()),
+        _ => None,
     };
+    let second_flat_l0_mm = hidden_second.map(|f| {
+        (
+            f.fresh_length_m(cal.vehicle.wheel_radius_m) * 1e3,
+            d.naming.as_ref().and_then(|n| n.second_flat_l0_mm),
+        )
+    });
     let after = d.added.as_ref().map(|a| &a.after_stage);
     let outcome = Outcome {
         case: case.name.clone(),
         hidden: case.hidden.clone(),
         named,
+        finer: case.finer,
+        noise: d.noise,
+        second_flat_l0_mm,
         verdict: d.verdict.clone(),
         pass,
         gap_before_kn: d.before_stage.gap_rms_kn,

@@ -81,6 +81,27 @@ pub(crate) fn resolution_step_kn(id: &IdentificationParams) -> f64 {
         .sum()
 }
 
+/// Field-like noise instead of the table's independent noise (issue 15's clean cases with
+/// coloured noise): per sensor an AR(1) series `e_0 = s·u_0`, `e_k = ρ·e_{k−1} + √(1−ρ²)·s·u_k`,
+/// `u_k` the table's independent draw. Stationary: its standard deviation is `s` times the
+/// table's and its lag-1 correlation `ρ`. `FieldNoise::TABLE` (`s = 1`, `ρ = 0`) gives the
+/// table's noise draw for draw.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FieldNoise {
+    /// Scale `s` of the noise's standard deviation over the table's (≥ 0).
+    pub scale: f64,
+    /// Lag-1 correlation `ρ` (0 ≤ ρ < 1).
+    pub ar1: f64,
+}
+
+impl FieldNoise {
+    /// The table's own independent noise.
+    pub const TABLE: FieldNoise = FieldNoise {
+        scale: 1.0,
+        ar1: 0.0,
+    };
+}
+
 /// Simulates `flat` with `cal` and perturbs it; `with_trigger` writes the laser trigger time.
 pub fn synthesize(
     cal: &CheckedCalibration,
@@ -88,6 +109,24 @@ pub fn synthesize(
     seed: u64,
     with_trigger: bool,
 ) -> Result<Synthetic, SimError> {
+    synthesize_with_noise(cal, flat, seed, with_trigger, FieldNoise::TABLE)
+}
+
+/// [`synthesize`] with field-like noise `noise` (see [`FieldNoise`]).
+pub fn synthesize_with_noise(
+    cal: &CheckedCalibration,
+    flat: &Flat,
+    seed: u64,
+    with_trigger: bool,
+    noise: FieldNoise,
+) -> Result<Synthetic, SimError> {
+    if !(noise.scale >= 0.0 && noise.scale.is_finite() && (0.0..1.0).contains(&noise.ar1)) {
+        return Err(SimError::Setup(format!(
+            "field noise scale {} (≥ 0) and AR(1) correlation {} (0 ≤ ρ < 1) out of range",
+            noise.scale, noise.ar1
+        )));
+    }
+    let innovation = (1.0 - noise.ar1 * noise.ar1).sqrt();
     // Record a margin around the windows: simulate with longer windows (the run is causal, so
     // the samples inside the bank's windows are unchanged).
     let mut wide = cal.document().clone();
@@ -131,17 +170,25 @@ pub fn synthesize(
         csv += &format!(",{n}_kn");
     }
     csv.push('\n');
+    let mut previous = vec![0.0; names.len()];
     for j in 0..resp.len() {
         csv += &format!("{:.6}", j as f64 / rate);
         for (s, series) in resp.pad_force_n.iter().enumerate() {
             let g = series[j] / 1e3;
             let truth = g * (1.0 - model_error[s]);
-            let noise = draw(
-                UncertaintyGroup::Measurement,
-                UncertaintyKind::AbsoluteKn,
-                true,
-            );
-            let mut y = truth * (1.0 + gain_error[s]) + noise;
+            let u = noise.scale
+                * draw(
+                    UncertaintyGroup::Measurement,
+                    UncertaintyKind::AbsoluteKn,
+                    true,
+                );
+            let e = if j == 0 {
+                u
+            } else {
+                noise.ar1 * previous[s] + innovation * u
+            };
+            previous[s] = e;
+            let mut y = truth * (1.0 + gain_error[s]) + e;
             if resolution_kn > 0.0 {
                 y = (y / resolution_kn).round() * resolution_kn;
             }

@@ -7,6 +7,7 @@
 //!
 //! Every term is a closed form, stated above the function that implements it.
 
+use super::flat::Flat;
 use super::wheel::WheelPosition;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::TAU;
@@ -99,6 +100,24 @@ pub enum Effect {
         /// Phase φ at t = 0 (degrees).
         phase_deg: f64,
     },
+    /// A second flat (issue 15): a flat of its own on `wheel` (the other wheel, or the flat
+    /// wheel at another angle), with the profile of paper Eq. 9 striking once per revolution
+    /// from `impact_position_m`: `z = d/2·(1 − cos(2πs/L)) − c/4·(1 − cos(4πs/L))`,
+    /// `0 ≤ s ≤ L`, added to that wheel's drop. The integrator takes fine steps around its
+    /// strikes as around the main flat's.
+    SecondFlat {
+        /// The wheel carrying it.
+        wheel: WheelPosition,
+        /// Length L (mm).
+        length_mm: f64,
+        /// Depth d (mm).
+        depth_mm: f64,
+        /// Curvature c (mm), `0 ≤ c < d/2`.
+        #[serde(default)]
+        curvature_mm: f64,
+        /// Where it first strikes X_p (m).
+        impact_position_m: f64,
+    },
     /// The train runs at `(1 + fraction)·v`. The recording stays aligned on the leading
     /// wheel's laser trigger, so the output is also delayed by `(x_laser − x_0)·(1/v − 1/v')`.
     SpeedDeviation {
@@ -113,7 +132,8 @@ impl Effect {
     ///
     /// - rail dip: `z(x) = a/2·(1 + cos(2π(x − x_d)/ℓ))` for `|x − x_d| ≤ ℓ/2`, else 0;
     /// - rail irregularity: `z(x) = A·sin(2πx/λ + φ)`;
-    /// - out-of-round wheel, on its wheel only: `z(x) = −A·cos(n·x/R_w + φ)`.
+    /// - out-of-round wheel, on its wheel only: `z(x) = −A·cos(n·x/R_w + φ)`;
+    /// - second flat, on its wheel only: the flat's trajectory (paper Eq. 9, once a revolution).
     ///
     /// Rail effects act under both wheels.
     #[inline]
@@ -147,7 +167,27 @@ impl Effect {
                     * 1e-3
                     * (f64::from(*order) * x / wheel_radius_m + phase_deg.to_radians()).cos()
             }
+            Effect::SecondFlat { wheel: on, .. } if on.index() == wheel => self
+                .second_flat()
+                .map_or(0.0, |f| f.trajectory(x, wheel_radius_m)),
             _ => 0.0,
+        }
+    }
+
+    /// The flat of a second-flat effect, on its wheel (None for other effects, and for
+    /// numbers that make no flat, which the calibration check refuses).
+    pub fn second_flat(&self) -> Option<Flat> {
+        match self {
+            Effect::SecondFlat {
+                wheel,
+                length_mm,
+                depth_mm,
+                curvature_mm,
+                impact_position_m,
+            } => Flat::from_mm(*length_mm, *depth_mm, *curvature_mm, *impact_position_m)
+                .ok()
+                .map(|f| f.on_wheel(*wheel)),
+            _ => None,
         }
     }
 

@@ -447,6 +447,22 @@ impl Simulator {
             ),
             None => Schedule::default(),
         };
+        for second in self
+            .cal
+            .effects
+            .iter()
+            .filter_map(effect::Effect::second_flat)
+        {
+            let zones = strike_zones(
+                &second,
+                self.wheel_start[self.flat_wheel(&second)],
+                self.speed,
+                self.wheel_radius,
+                t_end_s,
+                &self.cal.integration,
+            );
+            schedule.fine_zones_s.extend(zones.fine_zones_s);
+        }
         schedule.fine_zones_s.extend(dip_zones(
             &self.cal.effects,
             self.wheel_start,

@@ -247,6 +247,18 @@ pub fn html(d: &Diagnosis, figure: &str) -> String {
         );
     }
     h += "</table>";
+    if let Some(e) = &d.noise {
+        let _ = writeln!(
+            h,
+            "<h2>Noise from the record</h2><p>σ {} kN (the table's {:.3} kN), AR(1) lag-1 correlation ρ {:.3}, from {} high-passed samples of the flat-only fit's residual outside the flat's strikes; the fits use σ {:.3} kN and ρ {:.3}.</p>",
+            e.sigma_estimated_kn.map_or("not estimated".to_string(), |v| format!("{v:.3}")),
+            e.sigma_table_kn,
+            e.rho,
+            e.pairs,
+            e.sigma_used_kn,
+            e.rho
+        );
+    }
     if let Some(n) = &d.naming {
         let _ = writeln!(
             h,
@@ -254,6 +266,12 @@ pub fn html(d: &Diagnosis, figure: &str) -> String {
             esc(&n.criterion),
             n.simulations
         );
+        if let Some(place) = &n.place {
+            let _ = writeln!(h, "<p>Place of the best: {}.</p>", esc(place));
+        }
+        if let Some([lo, hi]) = n.second_flat_l0_mm {
+            let _ = writeln!(h, "<p>Second flat: L0 {lo:.1}–{hi:.1} mm.</p>");
+        }
         h += "<table><tr><th>effect</th><th>where</th><th>parameters (± 1 sd)</th><th>χ²</th><th>z</th><th>BIC</th><th>ΔBIC to the best</th><th>flat L, d, c, X_p</th><th>flat refitted</th></tr>";
         let best = n.ranking.first().map_or(n.no_effect.bic, |c| c.bic);
         for c in n.ranking.iter().chain(std::iter::once(&n.no_effect)) {
@@ -277,6 +295,33 @@ pub fn html(d: &Diagnosis, figure: &str) -> String {
             );
         }
         h += "</table>";
+        if let Some(step) = &n.second {
+            let _ = writeln!(
+                h,
+                "<h2>A second effect (forward selection)</h2><p>{}</p><p>First: {} at {}. Pairs, best first (χ², z and BIC of the pair):</p><table><tr><th>second effect</th><th>where</th><th>parameters (± 1 sd)</th><th>χ²</th><th>z</th><th>BIC</th></tr>",
+                esc(&step.verdict),
+                esc(&step.first.kind),
+                esc(&step.first.location)
+            );
+            for c in &step.ranking {
+                let params: Vec<String> = c
+                    .parameters
+                    .iter()
+                    .map(|p| format!("{} {:.4} ± {:.4}", esc(&p.name), p.value, p.sd))
+                    .collect();
+                let _ = writeln!(
+                    h,
+                    "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.1}</td><td>{:.1}</td><td>{:.1}</td></tr>",
+                    esc(&c.kind),
+                    esc(&c.location),
+                    params.join("; "),
+                    c.chi2,
+                    c.chi2_z,
+                    c.bic
+                );
+            }
+            h += "</table>";
+        }
     }
     h += "<h2>Timings</h2><ul>";
     for (name, s) in &d.timings_s {

@@ -334,7 +334,27 @@ pub fn diagnosis_text(d: &Diagnosis) -> String {
     if let Some(added) = &d.added {
         s += &stage_line("after", &added.after_stage);
     }
+    if let Some(e) = &d.noise {
+        s += &format!(
+            "noise from the record: σ {} kN (table {:.3}), AR(1) ρ {:.2} from {} flat-free samples; fits use σ {:.3} kN\n",
+            e.sigma_estimated_kn
+                .map_or("not estimated".to_string(), |v| format!("{v:.3}")),
+            e.sigma_table_kn,
+            e.rho,
+            e.pairs,
+            e.sigma_used_kn
+        );
+    }
     if let Some(n) = &d.naming {
+        if let Some(place) = &n.place {
+            s += &format!("place of the best: {place}\n");
+        }
+        if let Some([lo, hi]) = n.second_flat_l0_mm {
+            s += &format!("second flat: L0 {lo:.1}–{hi:.1} mm\n");
+        }
+        if let Some(step) = &n.second {
+            s += &format!("two effects, forward selection: {}\n", step.verdict);
+        }
         s += &format!("ranking ({}):\n", n.criterion);
         let best = n.ranking.first().map_or(n.no_effect.bic, |c| c.bic);
         for c in n

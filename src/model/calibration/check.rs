@@ -315,6 +315,37 @@ impl Calibration {
                         return Err(invalid(&key("fraction"), fraction, "|fraction| < 0.5"));
                     }
                 }
+                Effect::SecondFlat {
+                    length_mm,
+                    depth_mm,
+                    curvature_mm,
+                    impact_position_m,
+                    ..
+                } => {
+                    let flat = crate::model::Flat::from_mm(
+                        *length_mm,
+                        *depth_mm,
+                        *curvature_mm,
+                        *impact_position_m,
+                    )
+                    .map_err(|e| {
+                        invalid(
+                            &key("second_flat"),
+                            format!("L {length_mm} mm, d {depth_mm} mm, c {curvature_mm} mm"),
+                            &e.to_string(),
+                        )
+                    })?;
+                    let circumference_mm = std::f64::consts::TAU * v.wheel_radius_m * 1e3;
+                    if flat.length_m() * 1e3 >= circumference_mm {
+                        return Err(invalid(
+                            &key("length_mm"),
+                            length_mm,
+                            &format!(
+                                "shorter than the wheel's circumference ({circumference_mm:.0} mm)"
+                            ),
+                        ));
+                    }
+                }
                 Effect::SensorGain { sensor, factor } => {
                     if !self.sensors.pad.iter().any(|p| &p.name == sensor) {
                         return Err(invalid(
