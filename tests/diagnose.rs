@@ -403,4 +403,17 @@ fn a_speed_line_beyond_the_bank_is_diagnosed_from_the_record_and_identify_still_
         .parse()
         .unwrap();
     assert!((v - 55.0).abs() < 0.5, "{line}");
+    // The noise estimated from the record is in the text, the JSON and the HTML report.
+    assert!(stdout.contains("noise from the record: σ "), "{stdout}");
+    let out = tmp.join("diagnose");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("diagnosis.json")).unwrap())
+            .unwrap();
+    let used = json["noise"]["sigma_used_kn"].as_f64().unwrap();
+    assert!(
+        used >= json["noise"]["sigma_table_kn"].as_f64().unwrap(),
+        "{used}"
+    );
+    let html = std::fs::read_to_string(out.join("diagnosis.html")).unwrap();
+    assert!(html.contains("Noise from the record"));
 }

@@ -1,7 +1,7 @@
 //! `wheelflat diagnose`: name a model gap, add the effect, identify again.
 
 use super::args::DiagnoseArgs;
-use super::open_identifier_nearest;
+use super::open_identifier_with;
 use super::progress::Progress;
 use crate::identify::Extras;
 use crate::report::tables::diagnosis_text;
@@ -11,8 +11,13 @@ use anyhow::Result;
 /// the verdict, the stages and the ranking.
 pub(super) fn run(a: &DiagnoseArgs) -> Result<()> {
     let i = &a.input;
-    let (identifier, m) =
-        open_identifier_nearest(&i.bank, &i.measured, i.calibration.as_deref(), i.speed)?;
+    let (identifier, m) = open_identifier_with(
+        &i.bank,
+        &i.measured,
+        i.calibration.as_deref(),
+        i.speed,
+        true,
+    )?;
     // The fits re-simulate at the bank's speed: they see the pass on the bank's time axis.
     let speed = crate::identify::result::SpeedUse {
         pass_km_per_h: m.speed_km_per_h,

@@ -160,21 +160,21 @@ fn open_identifier(
     calibration: Option<&Path>,
     speed: Option<f64>,
 ) -> Result<(Identifier, Measurement)> {
-    let mut members = open_members(bank_dir, calibration)?;
-    let (m, k) = read_measurement(&mut members, measured, speed, false)?;
-    Ok((members.take(k), m))
+    open_identifier_with(bank_dir, measured, calibration, speed, false)
 }
 
-/// [`open_identifier`] for diagnosis: a stated speed beyond every member's band opens the
-/// nearest member instead of refusing (the diagnosis then lets the record say its speed).
-fn open_identifier_nearest(
+/// [`open_identifier`]; with `nearest` (diagnosis), a stated speed beyond every member's band
+/// opens the nearest member instead of refusing (the diagnosis then lets the record say its
+/// speed).
+fn open_identifier_with(
     bank_dir: &Path,
     measured: &Path,
     calibration: Option<&Path>,
     speed: Option<f64>,
+    nearest: bool,
 ) -> Result<(Identifier, Measurement)> {
     let mut members = open_members(bank_dir, calibration)?;
-    let (m, k) = read_measurement(&mut members, measured, speed, true)?;
+    let (m, k) = read_measurement(&mut members, measured, speed, nearest)?;
     Ok((members.take(k), m))
 }
 

@@ -275,17 +275,13 @@ pub fn html(d: &Diagnosis, figure: &str) -> String {
         h += "<table><tr><th>effect</th><th>where</th><th>parameters (± 1 sd)</th><th>χ²</th><th>z</th><th>BIC</th><th>ΔBIC to the best</th><th>flat L, d, c, X_p</th><th>flat refitted</th></tr>";
         let best = n.ranking.first().map_or(n.no_effect.bic, |c| c.bic);
         for c in n.ranking.iter().chain(std::iter::once(&n.no_effect)) {
-            let params: Vec<String> = c
-                .parameters
-                .iter()
-                .map(|p| format!("{} {:.4} ± {:.4}", esc(&p.name), p.value, p.sd))
-                .collect();
+            let params = params_text(c);
             let _ = writeln!(
                 h,
                 "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.1}</td><td>{:.1}</td><td>{:.1}</td><td>{:.1}</td><td>{:.1} mm, {:.3} mm, {:.3} mm, {:.4} m</td><td>{}</td></tr>",
                 if c.kind == "none" { "none (the flat alone)" } else { &c.kind },
                 esc(&c.location),
-                params.join("; "),
+                params,
                 c.chi2,
                 c.chi2_z,
                 c.bic,
@@ -304,17 +300,12 @@ pub fn html(d: &Diagnosis, figure: &str) -> String {
                 esc(&step.first.location)
             );
             for c in &step.ranking {
-                let params: Vec<String> = c
-                    .parameters
-                    .iter()
-                    .map(|p| format!("{} {:.4} ± {:.4}", esc(&p.name), p.value, p.sd))
-                    .collect();
                 let _ = writeln!(
                     h,
                     "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.1}</td><td>{:.1}</td><td>{:.1}</td></tr>",
                     esc(&c.kind),
                     esc(&c.location),
-                    params.join("; "),
+                    params_text(c),
                     c.chi2,
                     c.chi2_z,
                     c.bic
@@ -329,6 +320,15 @@ pub fn html(d: &Diagnosis, figure: &str) -> String {
     }
     h += "</ul></body></html>\n";
     h
+}
+
+/// A candidate's fitted parameters, `name value ± sd; …`, escaped.
+fn params_text(c: &crate::diagnose::Candidate) -> String {
+    c.parameters
+        .iter()
+        .map(|p| format!("{} {:.4} ± {:.4}", esc(&p.name), p.value, p.sd))
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 /// Writes the report into `dir` (created if needed).
