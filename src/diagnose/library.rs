@@ -147,7 +147,7 @@ fn rail_families(ctx: &Context, out: &mut Vec<Family>) {
     let mut i = 0usize;
     while x <= x1 + 1e-9 {
         dip_seeds.push(vec![x, 0.3, 0.5]);
-        if i % 2 == 0 {
+        if i.is_multiple_of(2) {
             dip_seeds.push(vec![x, 0.5, 0.5]);
             dip_seeds.push(vec![x, 0.9, 0.5]);
         }

@@ -180,7 +180,8 @@ fn moments(series: &[Vec<Option<f64>>]) -> Option<(f64, f64, usize)> {
             }
         }
     }
-    if n0 < MIN_PAIRS || n1 < MIN_PAIRS || !(s0 > 0.0) {
+    if n0 < MIN_PAIRS || n1 < MIN_PAIRS || s0.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+    {
         return None;
     }
     Some((s0 / n0 as f64, s1 / n1 as f64, n0))

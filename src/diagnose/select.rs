@@ -142,7 +142,7 @@ pub fn forward(
     let joint: Vec<Candidate> = order
         .iter()
         .take(PAIRS)
-        .filter_map(|&i| {
+        .map(|&i| {
             let (f, x2, xp, held_eval) = &held[i];
             let fam = &families[*f];
             let mut params = flat_params.to_vec();
@@ -189,7 +189,7 @@ pub fn forward(
                 &sd[4..4 + k1],
                 "first: ",
             ));
-            Some(Candidate {
+            Candidate {
                 kind: fam.kind.to_string(),
                 location: location_of(fam, &b),
                 flat: flat_mm(&actual2(judge, flat_apparent, &a, &b)),
@@ -208,7 +208,7 @@ pub fn forward(
                 gains: ev.gains.clone(),
                 family: *f,
                 apparent: flat_apparent,
-            })
+            }
         })
         .collect();
     let mut ranking = joint;

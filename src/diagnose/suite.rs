@@ -261,7 +261,10 @@ pub fn cases() -> Vec<Case> {
 }
 
 /// Issue 15's cases: away from the sensors, second flats, pairs, field noise, a speed line.
-fn round_two(case: &dyn Fn(&str, Hidden, [f64; 4], u64) -> Case) -> Vec<Case> {
+/// A case from its name, what it hides, its flat and seed.
+type MakeCase<'a> = &'a dyn Fn(&str, Hidden, [f64; 4], u64) -> Case;
+
+fn round_two(case: MakeCase) -> Vec<Case> {
     use Effect::*;
     let f1 = [58.0, 0.47, 0.04, 12.41];
     let f2 = [66.0, 0.52, 0.06, 12.37];
