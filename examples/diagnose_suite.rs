@@ -72,8 +72,8 @@ fn main() -> anyhow::Result<()> {
         );
         if let Some(e) = &d.noise {
             println!(
-                "      noise: σ table {:.3} kN, estimated {:?} kN, ρ {:.3} ({} pairs), used {:.3} kN; finer model: {}",
-                e.sigma_table_kn, e.sigma_estimated_kn, e.rho, e.pairs, e.sigma_used_kn, o.finer
+                "      noise: σ table {:.3} kN, estimated {:?} kN, ρ {:.3} ({} samples), used {:.3} kN; finer model: {}",
+                e.sigma_table_kn, e.sigma_estimated_kn, e.rho, e.samples, e.sigma_used_kn, o.finer
             );
         }
         if let Some(n) = &d.naming {

@@ -308,13 +308,21 @@ fn estimate_noise(
         .iter()
         .map(|o| (o.first_sample + o.values_kn.len()) as f64 / rate)
         .fold(0.0, f64::max);
+    // The strikes as the integrator schedules them, widened by the noise estimate's margins.
     let strikes: Vec<(f64, f64)> = fit::make_flat(&flat, problem.wheel())
         .map(|f| {
-            let x0 = timing.wheel_start_m;
-            f.strikes_between(x0, x0 + v * t_end, cal.vehicle.wheel_radius_m)
-                .into_iter()
-                .map(|x| {
-                    let t = (x - x0) / v;
+            let schedule = crate::model::schedule::strike_zones(
+                &f,
+                timing.wheel_start_m,
+                v,
+                cal.vehicle.wheel_radius_m,
+                t_end,
+                &cal.integration,
+            );
+            schedule
+                .strike_times_s
+                .iter()
+                .map(|t| {
                     (
                         t - noise::STRIKE_BEFORE_S,
                         t + f.length_m() / v + noise::STRIKE_AFTER_S,
@@ -336,14 +344,14 @@ fn estimate_noise(
         &strikes,
     );
     let found = noise::estimate(&residuals, &keep);
-    let (sigma_hat, rho, pairs) = found.map_or((None, 0.0, 0), |(s, r, n)| (Some(s), r, n));
+    let (sigma_hat, rho, samples) = found.map_or((None, 0.0, 0), |(s, r, n)| (Some(s), r, n));
     let used = sigma_hat.map_or(table.sigma_kn, |s| s.max(table.sigma_kn));
     (
         noise::NoiseEstimate {
             sigma_table_kn: table.sigma_kn,
             sigma_estimated_kn: sigma_hat,
             rho,
-            pairs,
+            samples,
             sigma_used_kn: used,
         },
         fit::NoiseModel {
@@ -514,8 +522,8 @@ pub fn diagnose(
         }
         let mut chosen: Option<select::SecondStep> = None;
         for (i, first) in firsts.into_iter().enumerate() {
-            let settled = chosen.as_ref().is_some_and(|s| s.named) || naming.named.is_some();
-            if i > 0 && settled {
+            // (No single effect is named here: the best one leaves more than noise.)
+            if i > 0 && chosen.as_ref().is_some_and(|s| s.named) {
                 break;
             }
             let step = select::forward(

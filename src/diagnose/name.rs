@@ -269,7 +269,23 @@ pub(crate) fn place_uncertainty(best: &Candidate, all: &[Candidate]) -> String {
 /// families when the kind has several; for families that spread (a dip, a second flat on
 /// each wheel), each family's `spread.2` best at least `spread.1` apart in parameter
 /// `spread.0`.
-pub(crate) fn pick_starts(
+/// The starts of kind `kind` among `seeds` (family, seed) scored `seed_chi2`: its finite
+/// seeds best first, picked by [`pick_starts`].
+pub(crate) fn kind_starts(
+    families: &[Family],
+    seeds: &[(usize, usize)],
+    seed_chi2: &[f64],
+    kind: &str,
+) -> Vec<(usize, usize)> {
+    let mut of_kind: Vec<usize> = (0..seeds.len())
+        .filter(|&i| families[seeds[i].0].kind == kind && seed_chi2[i].is_finite())
+        .collect();
+    of_kind.sort_by(|&a, &b| seed_chi2[a].total_cmp(&seed_chi2[b]));
+    let several = families.iter().filter(|f| f.kind == kind).count() > 1;
+    pick_starts(families, seeds, &of_kind, several)
+}
+
+fn pick_starts(
     families: &[Family],
     seeds: &[(usize, usize)],
     best_first: &[usize],
@@ -355,14 +371,10 @@ pub fn name(
         })
         .collect();
     // Stage 2: per kind, the two best seeds (of different families when it has several).
-    let mut starts: Vec<(usize, usize)> = Vec::new();
-    for kind in &kinds {
-        let mut of_kind: Vec<usize> = (0..seeds.len())
-            .filter(|&i| families[seeds[i].0].kind == *kind && seed_chi2[i].is_finite())
-            .collect();
-        of_kind.sort_by(|&a, &b| seed_chi2[a].total_cmp(&seed_chi2[b]));
-        starts.extend(pick_starts(families, &seeds, &of_kind, per_kind(kind) > 1));
-    }
+    let starts: Vec<(usize, usize)> = kinds
+        .iter()
+        .flat_map(|kind| kind_starts(families, &seeds, &seed_chi2, kind))
+        .collect();
     let held: Vec<Fit> = starts
         .par_iter()
         .filter_map(|&(f, s)| {
@@ -613,7 +625,8 @@ pub fn flat_mm(v: &FlatVector) -> [f64; 4] {
     [v[0], v[1], v[2] * v[1] / 2.0, v[3]]
 }
 
-fn fit_rms(problem: &Problem, e: &Evaluation) -> f64 {
+/// RMS of `a_s g − y` over all samples (kN).
+pub(crate) fn fit_rms(problem: &Problem, e: &Evaluation) -> f64 {
     let mut s2 = 0.0;
     for ((o, g), a) in problem.observed().iter().zip(&e.predicted_kn).zip(&e.gains) {
         s2 += g

@@ -18,8 +18,8 @@ use serde::{Deserialize, Serialize};
 
 /// Largest lag-1 correlation used (the whitening divides by `√(1 − ρ²)`).
 pub const MAX_RHO: f64 = 0.95;
-/// Fewest difference pairs an estimate is made from; fewer leave the table's noise.
-pub const MIN_PAIRS: usize = 100;
+/// Fewest filtered samples an estimate is made from; fewer leave the table's noise.
+pub const MIN_SAMPLES: usize = 100;
 /// Samples from this long before a strike of the flat…
 pub const STRIKE_BEFORE_S: f64 = 0.002;
 /// …to this long after its end are left out of the estimate (the impact's transient).
@@ -35,7 +35,7 @@ pub struct NoiseEstimate {
     /// ρ estimated (0 when not estimated).
     pub rho: f64,
     /// Filtered samples the estimate rests on.
-    pub pairs: usize,
+    pub samples: usize,
     /// σ the fits use: `max(σ_table, σ̂)` (kN).
     pub sigma_used_kn: f64,
 }
@@ -87,7 +87,7 @@ pub const CLIP_SD: f64 = 4.0;
 pub const CLIP_SPAN: usize = 25;
 
 /// σ and ρ of the AR(1) noise in `residuals` (one series per sensor) from the samples `keep`
-/// marks; None when fewer than [`MIN_PAIRS`] samples have their whole window kept.
+/// marks; None when fewer than [`MIN_SAMPLES`] samples have their whole window kept.
 ///
 /// Each residual is high-passed ([`high_pass`]) where its whole window is kept; the variance
 /// `C₀` and lag-1 autocovariance `C₁` of what is left (mean squares: unbiased whatever the
@@ -180,7 +180,9 @@ fn moments(series: &[Vec<Option<f64>>]) -> Option<(f64, f64, usize)> {
             }
         }
     }
-    if n0 < MIN_PAIRS || n1 < MIN_PAIRS || s0.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+    if n0 < MIN_SAMPLES
+        || n1 < MIN_SAMPLES
+        || s0.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
     {
         return None;
     }

@@ -11,7 +11,7 @@
 use super::fit::{levenberg_marquardt, Evaluation, FlatVector, Param, Problem};
 use super::library::{location_of, Family};
 use super::name::{
-    chi2_z, flat_mm, pick_starts, same_place, Candidate, Estimate, Judge, ADEQUATE_Z,
+    chi2_z, fit_rms, flat_mm, kind_starts, same_place, Candidate, Estimate, Judge, ADEQUATE_Z,
     CLEARLY_BETTER,
 };
 use crate::model::Effect;
@@ -98,14 +98,11 @@ pub fn forward(
         }
     }
     kinds.sort_by(|a, b| a.1.total_cmp(&b.1));
-    let mut starts = Vec::new();
-    for (kind, _) in kinds.iter().take(SECOND_KINDS) {
-        let mut of_kind: Vec<usize> = (0..seeds.len())
-            .filter(|&i| families[seeds[i].0].kind == *kind && seed_chi2[i].is_finite())
-            .collect();
-        of_kind.sort_by(|&a, &b| seed_chi2[a].total_cmp(&seed_chi2[b]));
-        starts.extend(pick_starts(families, &seeds, &of_kind, per_kind(kind) > 1));
-    }
+    let starts: Vec<(usize, usize)> = kinds
+        .iter()
+        .take(SECOND_KINDS)
+        .flat_map(|(kind, _)| kind_starts(families, &seeds, &seed_chi2, kind))
+        .collect();
     // The second effect and X_p fitted, the first held.
     let held: Vec<(usize, Vec<f64>, f64, Evaluation)> = starts
         .par_iter()
@@ -204,7 +201,7 @@ pub fn forward(
                 adequate: z <= ADEQUATE_Z,
                 samples_outside: outside,
                 gap_rms_kn: gap,
-                fit_rms_kn: f64::NAN,
+                fit_rms_kn: fit_rms(problem, &ev),
                 gains: ev.gains.clone(),
                 family: *f,
                 apparent: flat_apparent,

@@ -254,7 +254,7 @@ pub fn html(d: &Diagnosis, figure: &str) -> String {
             e.sigma_estimated_kn.map_or("not estimated".to_string(), |v| format!("{v:.3}")),
             e.sigma_table_kn,
             e.rho,
-            e.pairs,
+            e.samples,
             e.sigma_used_kn,
             e.rho
         );

@@ -341,7 +341,7 @@ pub fn diagnosis_text(d: &Diagnosis) -> String {
                 .map_or("not estimated".to_string(), |v| format!("{v:.3}")),
             e.sigma_table_kn,
             e.rho,
-            e.pairs,
+            e.samples,
             e.sigma_used_kn
         );
     }
