@@ -269,6 +269,37 @@ pub(crate) fn place_uncertainty(best: &Candidate, all: &[Candidate]) -> String {
 /// families when the kind has several; for families that spread (a dip, a second flat on
 /// each wheel), each family's `spread.2` best at least `spread.1` apart in parameter
 /// `spread.0`.
+/// Effect family `fam` fitted from `seed` over its parameters and X_p, the flat's L, d, c held
+/// at `flat` and the effects `held` held too (none for a single effect). The impact position
+/// moves with every effect that shifts the series in time, so it is fitted here too. The
+/// result's `x` and `sd` are `[X_p, the effect's parameters…]`.
+pub(crate) fn fit_held(
+    problem: &Problem,
+    judge: &Judge,
+    flat_params: &[Param],
+    fam: &Family,
+    seed: &[f64],
+    flat: FlatVector,
+    held: &[Effect],
+) -> Option<super::fit::Fitted> {
+    let mut params = vec![flat_params[3].clone()];
+    params.extend(fam.params.iter().cloned());
+    let mut x0 = vec![flat[3]];
+    x0.extend_from_slice(seed);
+    let eval = |x: &[f64]| {
+        let e = (fam.build)(&x[1..]);
+        let apparent = [flat[0], flat[1], flat[2], x[0]];
+        let actual = held
+            .iter()
+            .chain([&e])
+            .fold(apparent, |f, effect| judge.timing.actual(f, effect));
+        let mut effects = held.to_vec();
+        effects.push(e);
+        problem.evaluate(&actual, &effects)
+    };
+    levenberg_marquardt(&params, &x0, &eval, MAX_ITER)
+}
+
 /// The starts of kind `kind` among `seeds` (family, seed) scored `seed_chi2`: its finite
 /// seeds best first, picked by [`pick_starts`].
 pub(crate) fn kind_starts(
@@ -379,20 +410,7 @@ pub fn name(
         .par_iter()
         .filter_map(|&(f, s)| {
             let fam = &families[f];
-            // The impact position moves with every effect that shifts the series in time:
-            // it is fitted here too; L, d and c are held.
-            let mut params = vec![flat_params[3].clone()];
-            params.extend(fam.params.iter().cloned());
-            let mut x0 = vec![flat0[3]];
-            x0.extend_from_slice(&fam.seeds[s]);
-            let eval = |x: &[f64]| {
-                let e = (fam.build)(&x[1..]);
-                let flat = judge
-                    .timing
-                    .actual([flat0[0], flat0[1], flat0[2], x[0]], &e);
-                problem.evaluate(&flat, &[e])
-            };
-            let r = levenberg_marquardt(&params, &x0, &eval, MAX_ITER)?;
+            let r = fit_held(problem, judge, flat_params, fam, &fam.seeds[s], flat0, &[])?;
             let apparent = [flat0[0], flat0[1], flat0[2], r.x[0]];
             Some(Fit {
                 family: f,

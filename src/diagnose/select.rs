@@ -11,8 +11,8 @@
 use super::fit::{levenberg_marquardt, Evaluation, FlatVector, Param, Problem};
 use super::library::{location_of, Family};
 use super::name::{
-    chi2_z, fit_rms, flat_mm, kind_starts, same_place, Candidate, Estimate, Judge, ADEQUATE_Z,
-    CLEARLY_BETTER,
+    chi2_z, fit_held, fit_rms, flat_mm, kind_starts, same_place, Candidate, Estimate, Judge,
+    ADEQUATE_Z, CLEARLY_BETTER,
 };
 use crate::model::Effect;
 use rayon::prelude::*;
@@ -108,21 +108,16 @@ pub fn forward(
         .par_iter()
         .filter_map(|&(f, s)| {
             let fam = &families[f];
-            let mut params = vec![flat_params[3].clone()];
-            params.extend(fam.params.iter().cloned());
-            let mut x0 = vec![apparent[3]];
-            x0.extend_from_slice(&fam.seeds[s]);
-            let eval = |x: &[f64]| {
-                let e2 = (fam.build)(&x[1..]);
-                let flat = actual2(
-                    judge,
-                    [apparent[0], apparent[1], apparent[2], x[0]],
-                    &e1,
-                    &e2,
-                );
-                problem.evaluate(&flat, &[e1.clone(), e2])
-            };
-            let r = levenberg_marquardt(&params, &x0, &eval, MAX_ITER)?;
+            let held = std::slice::from_ref(&e1);
+            let r = fit_held(
+                problem,
+                judge,
+                flat_params,
+                fam,
+                &fam.seeds[s],
+                apparent,
+                held,
+            )?;
             Some((f, r.x[1..].to_vec(), r.x[0], r.eval))
         })
         .collect();
