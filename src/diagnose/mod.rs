@@ -10,6 +10,7 @@ pub mod library;
 pub mod locate;
 pub mod name;
 pub mod noise;
+pub mod restart;
 pub mod select;
 pub mod suite;
 
@@ -445,6 +446,17 @@ pub fn diagnose(
         .into_iter()
         .min_by(|a, b| a.eval.chi2.total_cmp(&b.eval.chi2))
         .ok_or_else(|| DiagnoseError::Other("the flat-only fit failed at every start".into()))?;
+    // The same restart as every effect's joint fit gets ([`restart`]), so that an effect
+    // never wins over the flat alone by a better search alone.
+    let chi2_of = |v: &fit::FlatVector| problem.evaluate(v, &[]).map_or(f64::INFINITY, |e| e.chi2);
+    let start = [best.x[0], best.x[1], best.x[2], best.x[3]];
+    let best = restart::flat_restart(&flat_params, start, best.eval.chi2, &chi2_of)
+        .and_then(|v| {
+            let eval = |x: &[f64]| problem.evaluate(&[x[0], x[1], x[2], x[3]], &[]);
+            fit::levenberg_marquardt(&flat_params, &v, &eval, 12)
+        })
+        .filter(|r| r.eval.chi2 < best.eval.chi2)
+        .unwrap_or(best);
     let flat0 = [best.x[0], best.x[1], best.x[2], best.x[3]];
     lap("flat-only fit", &mut timings);
     let lead = cal.run.leading_wheel_start_m;

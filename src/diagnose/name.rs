@@ -9,7 +9,8 @@
 //!    several) are fitted by Levenberg–Marquardt over the effect's parameters, flat held.
 //! 3. *Joint fit.* The best candidate of each of the [`JOINT`] best kinds by BIC, and the best
 //!    kind's second place (or, for a kind of one family, its next two starts), are refitted
-//!    with the flat parameters free as well.
+//!    with the flat parameters free as well — from the held fit's flat and from a restart
+//!    found with the effect held ([`super::restart`]), the better kept.
 //!
 //! `BIC = χ² + k·ln N + 2·ln M`: k the continuous parameters fitted (4 for the flat plus the
 //! effect's), N the samples compared, M the families of the kind (a uniform prior over the
@@ -18,6 +19,7 @@
 use super::fit::{levenberg_marquardt, Evaluation, FlatVector, Param, Problem};
 pub use super::library::{families, Context, Family};
 use super::library::{location_of, sleeper_of};
+use super::restart::fit_with_restart;
 use crate::model::Effect;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -469,14 +471,25 @@ pub fn name(
             let fam = &families[h.family];
             let mut params = flat_params.to_vec();
             params.extend(fam.params.iter().cloned());
-            let mut x0 = h.apparent.to_vec();
-            x0.extend_from_slice(&h.x);
             let eval = |x: &[f64]| {
                 let e = (fam.build)(&x[4..]);
                 let flat = judge.timing.actual([x[0], x[1], x[2], x[3]], &e);
                 problem.evaluate(&flat, &[e])
             };
-            let fit = levenberg_marquardt(&params, &x0, &eval, MAX_ITER_JOINT)
+            let from = |start: FlatVector| {
+                let mut x0 = start.to_vec();
+                x0.extend_from_slice(&h.x);
+                levenberg_marquardt(&params, &x0, &eval, MAX_ITER_JOINT)
+            };
+            // From the held fit's flat, and from the grid's best flat with the effect held
+            // when that fits better ([`super::restart`]).
+            let e = (fam.build)(&h.x);
+            let chi2_of = |v: &FlatVector| {
+                problem
+                    .evaluate(&judge.timing.actual(*v, &e), std::slice::from_ref(&e))
+                    .map_or(f64::INFINITY, |ev| ev.chi2)
+            };
+            let fit = fit_with_restart(flat_params, h.apparent, h.eval.chi2, &chi2_of, from)
                 .filter(|r| r.eval.chi2 <= h.eval.chi2)
                 .map(|r| Fit {
                     family: h.family,

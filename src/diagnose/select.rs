@@ -1,7 +1,8 @@
 //! Two effects at once (issue 15): forward selection by BIC. When the best single effect is
 //! clearly better than the flat alone but leaves more than noise, every other family is fitted
 //! *with it held* (seeds, then Levenberg–Marquardt over the new effect and X_p), the best
-//! [`PAIRS`] pairs are refitted with the flat and both effects free, and the best pair is named
+//! [`PAIRS`] pairs are refitted with the flat and both effects free (from the held fit's flat
+//! and from a restart, [`super::restart`]), and the best pair is named
 //! when each effect is supported on its own: its BIC at least [`CLEARLY_BETTER`] below the
 //! first effect alone's *and* below the second's alone, and what it leaves is noise.
 //!
@@ -14,6 +15,7 @@ use super::name::{
     chi2_z, fit_held, fit_rms, flat_mm, kind_starts, same_place, Candidate, Estimate, Judge,
     ADEQUATE_Z, CLEARLY_BETTER,
 };
+use super::restart::fit_with_restart;
 use crate::model::Effect;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -140,7 +142,8 @@ pub fn forward(
             let mut params = flat_params.to_vec();
             params.extend(f1.params.iter().cloned());
             params.extend(fam.params.iter().cloned());
-            let mut x0 = vec![apparent[0], apparent[1], apparent[2], *xp];
+            let start = [apparent[0], apparent[1], apparent[2], *xp];
+            let mut x0 = start.to_vec();
             x0.extend_from_slice(&x1);
             x0.extend_from_slice(x2);
             let eval = |x: &[f64]| {
@@ -148,7 +151,20 @@ pub fn forward(
                 let flat = actual2(judge, [x[0], x[1], x[2], x[3]], &a, &b);
                 problem.evaluate(&flat, &[a, b])
             };
-            let r = levenberg_marquardt(&params, &x0, &eval, MAX_ITER_JOINT)
+            // From the held fit's flat, and from the grid's best flat with both effects held
+            // when that fits better ([`super::restart`]).
+            let e2 = (fam.build)(x2);
+            let chi2_of = |v: &FlatVector| {
+                problem
+                    .evaluate(&actual2(judge, *v, &e1, &e2), &[e1.clone(), e2.clone()])
+                    .map_or(f64::INFINITY, |ev| ev.chi2)
+            };
+            let from = |v: FlatVector| {
+                let mut x = x0.clone();
+                x[..4].copy_from_slice(&v);
+                levenberg_marquardt(&params, &x, &eval, MAX_ITER_JOINT)
+            };
+            let r = fit_with_restart(flat_params, start, held_eval.chi2, &chi2_of, from)
                 .filter(|r| r.eval.chi2 <= held_eval.chi2)
                 .map(|r| (r.x, r.sd, r.eval))
                 .unwrap_or_else(|| (x0.clone(), vec![f64::NAN; x0.len()], held_eval.clone()));
