@@ -1,8 +1,9 @@
 //! A kill campaign: `bank generate` killed with SIGKILL at seeded random moments of a run
-//! (over 5–90 % of an uninterrupted run's time on the machine), then run again. After every kill no reader sees a partial bank (there is no `CURRENT`, or it names a
-//! complete, checked version), the writer lock has gone with the process, and the finished
-//! bank is byte-identical to one built without interruption. CI kills `WHEELFLAT_KILLS` times
-//! (default 4); the campaign in docs/bank.md used 26.
+//! (over 5–90 % of an uninterrupted run's time on the machine), then run again. After every
+//! kill no reader sees a partial bank (there is no `CURRENT`, or it names a complete, checked
+//! version), the writer lock has gone with the process, and the finished bank is
+//! byte-identical to one built without interruption. CI kills `WHEELFLAT_KILLS` times (default
+//! 4); the campaign in docs/bank.md used 26.
 
 mod common;
 

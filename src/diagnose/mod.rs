@@ -418,6 +418,11 @@ pub fn diagnose(
     use rayon::prelude::*;
     // Starts: the best bank instances, and the best one with X_p on a 20 mm grid over the
     // fit's X_p bounds (a series shifted in time puts the apparent impact outside the bank).
+    let chi2_of = |v: &fit::FlatVector| problem.evaluate(v, &[]).map_or(f64::INFINITY, |e| e.chi2);
+    let fit_from = |v: &fit::FlatVector| {
+        let eval = |x: &[f64]| problem.evaluate(&[x[0], x[1], x[2], x[3]], &[]);
+        fit::levenberg_marquardt(&flat_params, v, &eval, 12)
+    };
     let xp = &flat_params[3];
     let mut grid: Vec<fit::FlatVector> = Vec::new();
     let mut x = xp.lo;
@@ -425,36 +430,21 @@ pub fn diagnose(
         grid.push([starts[0].1[0], starts[0].1[1], starts[0].1[2], x]);
         x += 0.02;
     }
-    let mut scored: Vec<(f64, fit::FlatVector)> = grid
-        .par_iter()
-        .map(|v| {
-            let chi2 = problem.evaluate(v, &[]).map_or(f64::INFINITY, |e| e.chi2);
-            (chi2, *v)
-        })
-        .collect();
+    let mut scored: Vec<(f64, fit::FlatVector)> =
+        grid.par_iter().map(|v| (chi2_of(v), *v)).collect();
     scored.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut all_starts: Vec<fit::FlatVector> = starts.iter().map(|s| s.1).collect();
     all_starts.extend(scored.iter().take(2).map(|s| s.1));
-    let fits: Vec<fit::Fitted> = all_starts
-        .par_iter()
-        .filter_map(|v| {
-            let eval = |x: &[f64]| problem.evaluate(&[x[0], x[1], x[2], x[3]], &[]);
-            fit::levenberg_marquardt(&flat_params, v, &eval, 12)
-        })
-        .collect();
+    let fits: Vec<fit::Fitted> = all_starts.par_iter().filter_map(fit_from).collect();
     let best = fits
         .into_iter()
         .min_by(|a, b| a.eval.chi2.total_cmp(&b.eval.chi2))
         .ok_or_else(|| DiagnoseError::Other("the flat-only fit failed at every start".into()))?;
     // The same restart as every effect's joint fit gets ([`restart`]), so that an effect
     // never wins over the flat alone by a better search alone.
-    let chi2_of = |v: &fit::FlatVector| problem.evaluate(v, &[]).map_or(f64::INFINITY, |e| e.chi2);
     let start = [best.x[0], best.x[1], best.x[2], best.x[3]];
     let best = restart::flat_restart(&flat_params, start, best.eval.chi2, &chi2_of)
-        .and_then(|v| {
-            let eval = |x: &[f64]| problem.evaluate(&[x[0], x[1], x[2], x[3]], &[]);
-            fit::levenberg_marquardt(&flat_params, &v, &eval, 12)
-        })
+        .and_then(|v| fit_from(&v))
         .filter(|r| r.eval.chi2 < best.eval.chi2)
         .unwrap_or(best);
     let flat0 = [best.x[0], best.x[1], best.x[2], best.x[3]];
