@@ -269,9 +269,10 @@ pub(crate) fn map(path: &Path) -> Result<Bytes, BankError> {
         path: path.to_path_buf(),
         source,
     })?;
-    // SAFETY: shard files are written to a temporary name and renamed into place when complete;
-    // no wheelflat process modifies a file after that, so the mapping is not mutated under us.
-    // (Another program truncating the file while it is mapped would be outside this contract.)
+    // SAFETY: bank files (shards, layout, graph) are written to a temporary name and renamed
+    // into place when complete; no wheelflat process modifies a file after that, so the mapping
+    // is not mutated under us. (Another program truncating the file while it is mapped would be
+    // outside this contract.)
     let mmap = unsafe { memmap2::Mmap::map(&file) }.map_err(|source| BankError::Io {
         path: path.to_path_buf(),
         source,

@@ -20,6 +20,7 @@
 use super::layout::Layout;
 use super::schema::{sha256_hex, Manifest, ManifestAux, CURRENT, MANIFEST};
 use super::BankError;
+use bytes::Bytes;
 use std::path::{Path, PathBuf};
 
 /// The manifest line's key in `CURRENT`.
@@ -249,12 +250,12 @@ pub(crate) fn check_instance_order(version: &Path, instance: &[u32]) -> Result<(
 }
 
 /// Reads a file the manifest lists beside the shards, checked against its size and SHA-256.
-fn read_aux(version: &Path, aux: &ManifestAux) -> Result<(PathBuf, Vec<u8>), BankError> {
+fn read_aux(version: &Path, aux: &ManifestAux) -> Result<(PathBuf, Bytes), BankError> {
     let path = version.join(&aux.name);
-    let bytes = std::fs::read(&path).map_err(|source| BankError::Io {
-        path: path.clone(),
-        source,
-    })?;
+    // Mapped, not read: a fresh process then faults its pages in from the page cache a batch
+    // at a time instead of touching a new heap buffer page by page (1.3 and 1.6 MB for the
+    // 50k bank's layout and graph).
+    let bytes = super::schema::map(&path)?;
     check_against_manifest(&path, &bytes, aux.bytes, &aux.sha256)?;
     Ok((path, bytes))
 }

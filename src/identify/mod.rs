@@ -31,7 +31,7 @@ use crate::bank::{Bank, BankError, Parameters};
 use crate::model::calibration::IdentificationParams;
 use crate::model::WheelPosition;
 use cells::Cells;
-use entropy::{bin_predictions_into, greedy_joint_entropy, Binned};
+use entropy::{bin_into, binned_columns, greedy_joint_entropy};
 use falsify::{falsify, random_subset_counts, residual_minimisation, Point, Resolution};
 use pip::{perceptually_important_points, PipDistance};
 use ranges::{instance, population_ranges, ranges_of};
@@ -124,8 +124,8 @@ pub struct Identifier {
     cells: Cells,
     settings: IdentificationParams,
     uncertainty: CombinedUncertainty,
-    buffers: Mutex<buffer::PredictionBuffer>,
-    bin_buffers: Mutex<Vec<Binned>>,
+    buffers: Mutex<buffer::HugeBuffer>,
+    bin_buffers: Mutex<buffer::HugeBuffer>,
 }
 
 impl Identifier {
@@ -135,12 +135,12 @@ impl Identifier {
         // The stored graph when it was searched in today's metric; else (a bank written
         // before the metric was stretched) searched now, 0.3 s for 50,000 instances.
         let population = &bank.metadata().calibration.population;
-        let graph = bank
+        let stored = bank
             .neighbour_weights()
-            .is_some_and(|w| crate::bank::neighbours::in_metric_of(w, population))
-            .then(|| bank.neighbours().map(<[u32]>::to_vec))
-            .flatten();
-        Identifier::with_neighbours(bank, settings, graph)
+            .is_some_and(|w| crate::bank::neighbours::in_metric_of(w, population));
+        let params = bank.read_parameters()?;
+        let cells = Cells::new(&params, population, bank.neighbours().filter(|_| stored));
+        Ok(Identifier::from_parts(bank, settings, params, cells))
     }
 
     /// [`Identifier::new`] with the cells' neighbour graph given (`None`: searched now).
@@ -150,21 +150,27 @@ impl Identifier {
         graph: Option<Vec<u32>>,
     ) -> Result<Identifier, IdentifyError> {
         let params = bank.read_parameters()?;
+        let population = &bank.metadata().calibration.population;
+        let cells = Cells::new(&params, population, graph.as_deref());
+        Ok(Identifier::from_parts(bank, settings, params, cells))
+    }
+
+    fn from_parts(
+        bank: Bank,
+        settings: IdentificationParams,
+        params: Parameters,
+        cells: Cells,
+    ) -> Identifier {
         let uncertainty = CombinedUncertainty::new(&settings);
-        let cells = Cells::new(
-            &params,
-            &bank.metadata().calibration.population,
-            graph.as_deref(),
-        );
-        Ok(Identifier {
+        Identifier {
             bank,
             params,
             cells,
             settings,
             uncertainty,
-            buffers: Mutex::new(buffer::PredictionBuffer::default()),
-            bin_buffers: Mutex::new(Vec::new()),
-        })
+            buffers: Mutex::new(buffer::HugeBuffer::default()),
+            bin_buffers: Mutex::new(buffer::HugeBuffer::default()),
+        }
     }
 
     /// The bank.
@@ -424,23 +430,35 @@ impl Identifier {
             let (lo, hi) = self.uncertainty.thresholds(measured[i], p);
             (lo - widening[i], hi + widening[i])
         };
-        let mut binned = self.bin_buffers.lock().unwrap_or_else(|e| e.into_inner());
-        binned.resize_with(measured.len(), Binned::default);
-        let bin_all = |p: f64, binned: &mut Vec<Binned>| {
+        let mut bin_buffer = self.bin_buffers.lock().unwrap_or_else(|e| e.into_inner());
+        let bins: &mut [u16] = bin_buffer.values(measured.len() * n).map_err(|e| {
+            IdentifyError::Invalid(format!(
+                "cannot map {} MB for the predictions' bins: {e}",
+                (measured.len() * n * 2) >> 20
+            ))
+        })?;
+        // Bins every candidate's predictions at the widths for p, into `bins` (one column a
+        // candidate), and gives them as the greedy selection reads them.
+        let bin_all = |p: f64, bins: &mut [u16]| -> Vec<(usize, f64)> {
             use rayon::prelude::*;
-            binned.par_iter_mut().enumerate().for_each(|(i, b)| {
-                let (lo, hi) = bounds(i, p);
-                bin_predictions_into(predictions[i], hi - lo, b);
-            });
+            bins.par_chunks_mut(n.max(1))
+                .enumerate()
+                .map(|(i, b)| {
+                    let (lo, hi) = bounds(i, p);
+                    bin_into(predictions[i], hi - lo, b)
+                })
+                .collect()
         };
         lap("resolution", &mut timings);
-        bin_all(s.phi, &mut binned);
+        let counts = bin_all(s.phi, bins);
+        let binned = binned_columns(bins, n, &counts);
         lap("binning 1", &mut timings);
         let first = greedy_joint_entropy(&binned, &all, alpha, cands.len());
         let m1 = first.order.len().max(1);
         let p = s.phi.powf(1.0 / m1 as f64);
         lap("greedy 1", &mut timings);
-        bin_all(p, &mut binned);
+        let counts = bin_all(p, bins);
+        let binned = binned_columns(bins, n, &counts);
         lap("binning 2", &mut timings);
         let selection = greedy_joint_entropy(&binned, &all, alpha, m1);
         let m_final = selection.order.len().max(1);
