@@ -56,7 +56,8 @@ pub fn bin_into(values: &[f32], width: f64, bins: &mut [u16]) -> (usize, f64) {
     if values.is_empty() {
         return (0, 0.0);
     }
-    // The range; `<` skips a NaN as `f32::min` does (the bank holds none: checked on reading).
+    // The range; `<` skips a NaN as `f32::min` does (the simulator refuses a non-finite state,
+    // so a bank holds none).
     let (mut lo8, mut hi8) = ([f32::MAX; 8], [f32::MIN; 8]);
     let mut chunks = values.chunks_exact(8);
     for c in &mut chunks {
@@ -86,12 +87,13 @@ pub fn bin_into(values: &[f32], width: f64, bins: &mut [u16]) -> (usize, f64) {
     let last = (MAX_BINS - 1) as f64;
     let bin = |v: f32| {
         let x = (v as f64 - lo) * inv;
-        // `x < last` is false for NaN, which takes the last bin as `f64::min` would give it.
+        // Clamped to [0, last] as `x.min(last) as u16` does: NaN takes the last bin, below
+        // zero (only when every value is NaN) the first.
         let y = if x < last { x } else { last };
-        // SAFETY: y is in [0, MAX_BINS − 1]: v ≥ lo (lo is the minimum) makes x ≥ 0, and
-        // NaN or anything at or above `last` became `last` above. In range, the unchecked
-        // conversion truncates as `as` does, without the saturation code that keeps the
-        // loop from vectorising.
+        let y = if y > 0.0 { y } else { 0.0 };
+        // SAFETY: y is in [0, MAX_BINS − 1] (clamped above). In range, the unchecked
+        // conversion truncates as `as` does, without the saturation code that keeps the loop
+        // from vectorising.
         unsafe { y.to_int_unchecked::<i32>() as u16 }
     };
     let nbins = bin(hi) as usize + 1;
@@ -559,6 +561,41 @@ mod tests {
         let tiny = binned((0..n).map(|i| u32::from(i == 0)).collect()); // gain ≈ 0.1 bit
         let s = greedy_joint_entropy(&[a, tiny], &[0, 1], 0.2, 10);
         assert_eq!(s.order, vec![0]);
+    }
+
+    #[test]
+    fn binning_matches_the_plain_conversion_bit_for_bit() {
+        // The vectorised binning against `((v − lo)·(1/w)).min(last) as u16` one value at a
+        // time, on values that land on bin edges, in the last bin, and past MAX_BINS widths.
+        let mut state = 3u64;
+        for &(n, width) in &[
+            (1usize, 0.5),
+            (7, 1.0),
+            (1000, 0.1),
+            (4099, 0.013),
+            (300, 1e-9),
+        ] {
+            let values: Vec<f32> = (0..n)
+                .map(|i| {
+                    let u = crate::identify::uncertainty::uniform(&mut state);
+                    if i % 5 == 0 {
+                        (i / 5) as f32 * width as f32 - 3.0
+                    } else {
+                        (u * 40.0 - 7.0) as f32
+                    }
+                })
+                .collect();
+            let lo = values.iter().fold(f32::MAX, |a, &v| a.min(v)) as f64;
+            let last = (MAX_BINS - 1) as f64;
+            let plain: Vec<u16> = values
+                .iter()
+                .map(|&v| ((v as f64 - lo) * (1.0 / width)).min(last) as u16)
+                .collect();
+            let b = bin_predictions(&values, width);
+            assert_eq!(b.bins, plain, "n {n}, width {width}");
+            assert_eq!(b.nbins, *plain.iter().max().unwrap() as usize + 1);
+            assert!((b.entropy_bits - entropy(&b)).abs() < 1e-12);
+        }
     }
 
     #[test]
