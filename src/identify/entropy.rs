@@ -262,7 +262,9 @@ pub fn greedy_joint_entropy<B: AsRef<[u16]> + Sync>(
                     }
                 })
                 .0;
-            if fresh[pos] {
+            // A fresh gain never exceeds its stale bound: when even the highest bound is below
+            // α, nothing more will be chosen and no evaluation can change that.
+            if fresh[pos] || bounds[pos] < alpha_bits || bounds[pos] <= 1e-12 {
                 break pos;
             }
             // Re-evaluate the stale candidates with the highest bounds, one per thread, in
