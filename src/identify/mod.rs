@@ -155,6 +155,8 @@ impl Identifier {
         Ok(Identifier::from_parts(bank, settings, params, cells))
     }
 
+    /// The identifier of an opened bank, its parameters and cells (the buffers empty until the
+    /// first measurement).
     fn from_parts(
         bank: Bank,
         settings: IdentificationParams,
@@ -437,8 +439,8 @@ impl Identifier {
                 (measured.len() * n * 2) >> 20
             ))
         })?;
-        // Bins every candidate's predictions at the widths for p, into `bins` (one column a
-        // candidate), and gives them as the greedy selection reads them.
+        // Bins every candidate's predictions at the widths for p into `bins` (one column a
+        // candidate); returns each column's number of bins and entropy.
         let bin_all = |p: f64, bins: &mut [u16]| -> Vec<(usize, f64)> {
             use rayon::prelude::*;
             bins.par_chunks_mut(n.max(1))
