@@ -235,6 +235,13 @@ impl<'a> Problem<'a> {
         self.simulate(flat, effects).map(|g| self.misfit(g))
     }
 
+    /// The χ² of [`Problem::evaluate`], infinite when the simulation fails (for ranking
+    /// seeds and starts, where a failed one must never win).
+    pub fn chi2(&self, flat: &FlatVector, effects: &[Effect]) -> f64 {
+        self.evaluate(flat, effects)
+            .map_or(f64::INFINITY, |e| e.chi2)
+    }
+
     /// Samples of the raw prediction outside the Šídák thresholds at per-point probability
     /// `p` (the same rule as [`super::locate`], without a bank cell), and the RMS of the excess
     /// over all samples (kN).

@@ -418,7 +418,7 @@ pub fn diagnose(
     use rayon::prelude::*;
     // Starts: the best bank instances, and the best one with X_p on a 20 mm grid over the
     // fit's X_p bounds (a series shifted in time puts the apparent impact outside the bank).
-    let chi2_of = |v: &fit::FlatVector| problem.evaluate(v, &[]).map_or(f64::INFINITY, |e| e.chi2);
+    let chi2_of = |v: &fit::FlatVector| problem.chi2(v, &[]);
     let fit_from = |v: &fit::FlatVector| {
         let eval = |x: &[f64]| problem.evaluate(&[x[0], x[1], x[2], x[3]], &[]);
         fit::levenberg_marquardt(&flat_params, v, &eval, 12)

@@ -398,9 +398,7 @@ pub fn name(
         .par_iter()
         .map(|&(f, s)| {
             let e = (families[f].build)(&families[f].seeds[s]);
-            problem
-                .evaluate(&judge.timing.actual(flat0, &e), &[e])
-                .map_or(f64::INFINITY, |e| e.chi2)
+            problem.chi2(&judge.timing.actual(flat0, &e), &[e])
         })
         .collect();
     // Stage 2: per kind, the two best seeds (of different families when it has several).
@@ -485,9 +483,7 @@ pub fn name(
             // when that fits better ([`super::restart`]).
             let e = (fam.build)(&h.x);
             let chi2_of = |v: &FlatVector| {
-                problem
-                    .evaluate(&judge.timing.actual(*v, &e), std::slice::from_ref(&e))
-                    .map_or(f64::INFINITY, |ev| ev.chi2)
+                problem.chi2(&judge.timing.actual(*v, &e), std::slice::from_ref(&e))
             };
             let fit = fit_with_restart(flat_params, h.apparent, h.eval.chi2, &chi2_of, from)
                 .filter(|r| r.eval.chi2 <= h.eval.chi2)

@@ -85,9 +85,7 @@ pub fn forward(
         .map(|&(f, s)| {
             let e2 = (families[f].build)(&families[f].seeds[s]);
             let flat = actual2(judge, apparent, &e1, &e2);
-            problem
-                .evaluate(&flat, &[e1.clone(), e2])
-                .map_or(f64::INFINITY, |e| e.chi2)
+            problem.chi2(&flat, &[e1.clone(), e2])
         })
         .collect();
     // The SECOND_KINDS kinds whose best seed fits best, their starts.
@@ -153,12 +151,9 @@ pub fn forward(
             };
             // From the held fit's flat, and from the grid's best flat with both effects held
             // when that fits better ([`super::restart`]).
-            let e2 = (fam.build)(x2);
-            let chi2_of = |v: &FlatVector| {
-                problem
-                    .evaluate(&actual2(judge, *v, &e1, &e2), &[e1.clone(), e2.clone()])
-                    .map_or(f64::INFINITY, |ev| ev.chi2)
-            };
+            let held = [e1.clone(), (fam.build)(x2)];
+            let chi2_of =
+                |v: &FlatVector| problem.chi2(&actual2(judge, *v, &held[0], &held[1]), &held);
             let from = |v: FlatVector| {
                 let mut x = x0.clone();
                 x[..4].copy_from_slice(&v);

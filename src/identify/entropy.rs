@@ -34,15 +34,13 @@ pub struct Binned<B = Vec<u16>> {
 
 /// Bins `values` with width `width` starting at their minimum (at most [`MAX_BINS`] bins).
 pub fn bin_predictions(values: &[f32], width: f64) -> Binned {
-    let mut b = Binned::default();
-    bin_predictions_into(values, width, &mut b);
-    b
-}
-
-/// [`bin_predictions`] into a reused buffer (the hot path allocates nothing per call).
-pub fn bin_predictions_into(values: &[f32], width: f64, out: &mut Binned) {
-    out.bins.resize(values.len(), 0);
-    (out.nbins, out.entropy_bits) = bin_into(values, width, &mut out.bins);
+    let mut bins = vec![0; values.len()];
+    let (nbins, entropy_bits) = bin_into(values, width, &mut bins);
+    Binned {
+        bins,
+        nbins,
+        entropy_bits,
+    }
 }
 
 /// Bins `values` into `bins` (one per value): returns the number of bins and their entropy.
@@ -224,13 +222,7 @@ pub fn greedy_joint_entropy<B: AsRef<[u16]> + Sync>(
                    touched: &mut Vec<u16>| {
         let mut gain = 0.0;
         for &(start, len) in groups {
-            for &k in &active[start..start + len] {
-                let b = bins[k as usize];
-                if counts[b as usize] == 0 {
-                    touched.push(b);
-                }
-                counts[b as usize] += 1;
-            }
+            count_run(bins, &active[start..start + len], counts, touched);
             let mut cells = 0.0;
             for &b in touched.iter() {
                 cells += clog[counts[b as usize] as usize];
@@ -316,6 +308,20 @@ pub fn greedy_joint_entropy<B: AsRef<[u16]> + Sync>(
         fresh.iter_mut().for_each(|f| *f = false);
     }
     sel
+}
+
+/// Counts the bins of the instances in `run` into `counts` (zero on entry), listing in
+/// `touched` each bin the first time it is seen. The caller reads the counts in `touched` order
+/// and sets them back to zero.
+#[inline]
+fn count_run(bins: &[u16], run: &[u32], counts: &mut [u32], touched: &mut Vec<u16>) {
+    for &k in run {
+        let b = bins[k as usize];
+        if counts[b as usize] == 0 {
+            touched.push(b);
+        }
+        counts[b as usize] += 1;
+    }
 }
 
 /// The instances that still share a group with another, in group order, and the groups as
@@ -404,13 +410,7 @@ impl Partition {
         let mut touched: Vec<u16> = Vec::with_capacity(64);
         for &(start, len) in groups {
             let run = &active[start..start + len];
-            for &k in run {
-                let b = bins[k as usize] as usize;
-                if counts[b] == 0 {
-                    touched.push(b as u16);
-                }
-                counts[b] += 1;
-            }
+            count_run(bins, run, &mut counts, &mut touched);
             let mut acc = self.active.len() as u32;
             for &b in touched.iter() {
                 let c = counts[b as usize];
