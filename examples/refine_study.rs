@@ -11,7 +11,7 @@ mod study;
 
 use study::Study;
 use wheelflat::identify::coverage::{self, judge, method_line, severity_class, Judged};
-use wheelflat::identify::refine::{refine, RefineMode, RefineSettings};
+use wheelflat::identify::refine::{refine, RefineMode, RefineSettings, WholeRecord};
 use wheelflat::identify::{Extras, Identifier};
 use wheelflat::model::Simulator;
 
@@ -28,7 +28,12 @@ fn main() {
             },
             Err(_) => RefineMode::Cells,
         },
-        whole_record: std::env::var("WHOLE").ok().map(|w| w.parse().unwrap()),
+        // WHOLE=0: every sample; WHOLE=w: extremes over ±w; WHOLE=s: smoothed samples.
+        whole_record: std::env::var("WHOLE").ok().map(|w| match w.as_str() {
+            "0" => WholeRecord::Samples,
+            "s" => WholeRecord::Smoothed,
+            w => WholeRecord::Extremes(w.parse().unwrap()),
+        }),
         ends_weight: std::env::var("ENDS").map_or(4, |w| w.parse().unwrap()),
         ..RefineSettings::default()
     };

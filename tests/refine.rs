@@ -7,7 +7,7 @@ mod common;
 use common::{cached_bank, narrow_calibration, wheelflat, CachedBank};
 use wheelflat::bank::Bank;
 use wheelflat::identify::coverage::{self, judge, severity_limits};
-use wheelflat::identify::refine::{refine, RefineSettings};
+use wheelflat::identify::refine::{refine, RefineSettings, WholeRecord};
 use wheelflat::identify::{Extras, Identifier};
 use wheelflat::model::Simulator;
 
@@ -121,6 +121,24 @@ fn refinement_settings_have_ranges() {
         assert!(e.contains(what), "{e}");
     }
     assert!(RefineSettings::default().check().is_ok());
+    let whole = |w| RefineSettings {
+        whole_record: Some(w),
+        ..RefineSettings::default()
+    };
+    for w in [0, 51] {
+        let e = whole(WholeRecord::Extremes(w))
+            .check()
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(&format!("half-width = {w} samples")), "{e}");
+    }
+    for w in [
+        WholeRecord::Samples,
+        WholeRecord::Extremes(2),
+        WholeRecord::Smoothed,
+    ] {
+        assert!(whole(w).check().is_ok(), "{w:?}");
+    }
 }
 
 /// `identify --refine` prints the refined answer after the bank-only one and writes it into

@@ -1,7 +1,7 @@
 //! The comparison points a refinement judges flats at, and the simulation that gives every
 //! flat's values there.
 
-use super::Member;
+use super::{Member, WholeRecord};
 use crate::bank::schema::SensorAxis;
 use crate::identify::falsify::Point;
 use crate::identify::result::Identification;
@@ -9,13 +9,29 @@ use crate::identify::{Identifier, IdentifyError, ThresholdCurve};
 use crate::model::{batch_key, Flat, Record, Simulator, WheelPosition, LANES};
 use rayon::prelude::*;
 
+/// How a comparison point reads a series over its samples `a..=b`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum Read {
+    /// The sample (`a == b`).
+    Sample,
+    /// The window's maximum.
+    Max,
+    /// The window's minimum.
+    Min,
+    /// The three samples `a, a+1, a+2` weighted ¼, ½, ¼ (a filter that removes the
+    /// Nyquist frequency and quarters the rail's ringing near 800 Hz).
+    Smoothed,
+}
+
+/// A comparison point: (bank axis, first sample, last sample, how it reads them).
+pub(super) type At = (usize, usize, usize, Read);
+
 /// The comparison points of an identification: each is a sample (EIP) or a window's extreme
 /// (envelope point) of one bank axis, with its measurement, thresholds and threshold curve.
 pub(super) struct Comparison {
     /// The bank's sensor axes.
     pub(super) axes: Vec<SensorAxis>,
-    /// (bank axis, first sample, last sample, window maximum / minimum / the sample).
-    pub(super) at: Vec<(usize, usize, usize, Option<bool>)>,
+    pub(super) at: Vec<At>,
     pub(super) measured: Vec<f64>,
     pub(super) thresholds: Vec<(f64, f64)>,
     pub(super) curves: Vec<ThresholdCurve>,
@@ -39,7 +55,7 @@ impl Comparison {
         };
         for &e in &id.eip {
             let cand = &id.candidates[e];
-            c.at.push((axis_of(cand.series), cand.sample, cand.sample, None));
+            c.at.push((axis_of(cand.series), cand.sample, cand.sample, Read::Sample));
             c.measured.push(cand.measured_kn);
             c.thresholds
                 .push((cand.threshold_low_kn, cand.threshold_high_kn));
@@ -51,7 +67,11 @@ impl Comparison {
                 axis_of(x.series),
                 x.sample - x.half_width,
                 x.sample + x.half_width,
-                Some(x.kind == "max"),
+                if x.kind == "max" {
+                    Read::Max
+                } else {
+                    Read::Min
+                },
             ));
             c.measured.push(x.measured_kn);
             c.thresholds.push((x.threshold_low_kn, x.threshold_high_kn));
@@ -60,20 +80,20 @@ impl Comparison {
         c
     }
 
-    /// Every sample of every sensor window of the identification (`half_width` 0), or the
-    /// maximum and the minimum over ±`half_width` samples around every sample (window extremes
-    /// move little when an impact moves by a sample or two, as the envelope points), with
-    /// thresholds at `φ^(1/N)` for the N points (Šídák over the whole record).
+    /// Every sample of every sensor window of the identification, read as `whole` says, with
+    /// thresholds at `φ^(1/N)` for the N points (Šídák over the whole record). A smoothed
+    /// point's thresholds are those of its smoothed measured force: a weighted mean of errors
+    /// is no wider than one of them where they are shared, and narrower where independent.
     pub(super) fn whole_record(
         identifier: &Identifier,
         id: &Identification,
-        half_width: usize,
+        whole: WholeRecord,
     ) -> Comparison {
         let axes = &identifier.bank().metadata().sensors;
-        let kinds: &[Option<bool>] = if half_width == 0 {
-            &[None]
-        } else {
-            &[Some(true), Some(false)]
+        let (half_width, kinds): (usize, &[Read]) = match whole {
+            WholeRecord::Samples => (0, &[Read::Sample]),
+            WholeRecord::Extremes(w) => (w, &[Read::Max, Read::Min]),
+            WholeRecord::Smoothed => (1, &[Read::Smoothed]),
         };
         let total: usize = id
             .series
@@ -97,8 +117,10 @@ impl Comparison {
             for k in half_width..n.saturating_sub(half_width) {
                 for &kind in kinds {
                     let at = (axis, k - half_width, k + half_width, kind);
-                    let y = Comparison::value(at, |j| ser.values_kn[j] as f32) as f64;
-                    let y = if half_width == 0 { ser.values_kn[k] } else { y };
+                    let y = match kind {
+                        Read::Sample => ser.values_kn[k],
+                        _ => Comparison::value(at, |j| ser.values_kn[j] as f32) as f64,
+                    };
                     c.at.push(at);
                     c.measured.push(y);
                     c.thresholds.push(identifier.thresholds(y, p));
@@ -136,15 +158,16 @@ impl Comparison {
     }
 
     /// A window's value: the sample, or the extreme over the window.
-    pub(super) fn value(
-        at: (usize, usize, usize, Option<bool>),
-        series: impl Fn(usize) -> f32,
-    ) -> f32 {
+    pub(super) fn value(at: At, series: impl Fn(usize) -> f32) -> f32 {
         let (_, a, b, kind) = at;
         match kind {
-            None => series(a),
-            Some(true) => (a..=b).map(series).fold(f32::MIN, f32::max),
-            Some(false) => (a..=b).map(series).fold(f32::MAX, f32::min),
+            Read::Sample => series(a),
+            Read::Max => (a..=b).map(series).fold(f32::MIN, f32::max),
+            Read::Min => (a..=b).map(series).fold(f32::MAX, f32::min),
+            Read::Smoothed => {
+                (0.25 * series(a) as f64 + 0.5 * series(a + 1) as f64 + 0.25 * series(a + 2) as f64)
+                    as f32
+            }
         }
     }
 }
@@ -247,7 +270,7 @@ mod tests {
         let measured = vec![20.0, 35.0, 5.0];
         let cmp = Comparison {
             axes: Vec::new(),
-            at: vec![(0, 0, 0, None); 3],
+            at: vec![(0, 0, 0, Read::Sample); 3],
             thresholds: measured.iter().map(|&y| u.thresholds(y, p)).collect(),
             curves: measured.iter().map(|&y| u.curve(y, p)).collect(),
             measured,
@@ -282,12 +305,14 @@ mod tests {
     }
 
     #[test]
-    fn a_window_value_is_the_sample_or_the_window_extreme() {
+    fn a_window_value_is_the_sample_the_window_extreme_or_the_smoothed_sample() {
         let series = [1.0f32, 4.0, -2.0, 3.0];
         let at = |kind| (0, 0, 3, kind);
         let v = |at| Comparison::value(at, |j| series[j]).to_bits();
-        assert_eq!(v((0, 2, 2, None)), (-2.0f32).to_bits());
-        assert_eq!(v(at(Some(true))), 4.0f32.to_bits());
-        assert_eq!(v(at(Some(false))), (-2.0f32).to_bits());
+        assert_eq!(v((0, 2, 2, Read::Sample)), (-2.0f32).to_bits());
+        assert_eq!(v(at(Read::Max)), 4.0f32.to_bits());
+        assert_eq!(v(at(Read::Min)), (-2.0f32).to_bits());
+        // ¼·4 + ½·(−2) + ¼·3 = 0.75, exact in binary.
+        assert_eq!(v((0, 1, 3, Read::Smoothed)), 0.75f32.to_bits());
     }
 }

@@ -1,0 +1,236 @@
+//! Whole-record judging under model-form error (issue 11): can any rule for comparing *every
+//! sample* keep the truth (coverage) and still rule out the flats of a higher severity class
+//! (the severity ceiling)?
+//!
+//! For each seeded case two things are judged at every sample of every sensor window, Šídák
+//! over all N samples (per-point probability `φ^(1/N)`, the prediction's own thresholds where
+//! it is the larger force, as falsification judges), with no cell widening:
+//! - **the truth as the bank's model simulates it** — the best any bank or refinement can
+//!   hold. With `finer` measurements the difference is model-form error; a rule that rejects
+//!   this flat loses the case whatever the population;
+//! - **the bank-only answer's candidates of a higher class than the truth**, deepest first (at
+//!   most `MAX_CHECKED`): one that passes means an answer judged by this rule and keeping every
+//!   flat it cannot exclude over-calls the case.
+//!
+//! Rules: `plain`; `smooth` (both series filtered ¼, ½, ¼ first); `smooth below f` (plain
+//! where the smoothed measured force is at least f kN, smoothed below); `shift w` (a sample passes when the thresholds around the measurement meet
+//! the prediction's range over ±w samples: timing tolerance); `rate b` (thresholds widened by
+//! b × the prediction's largest change to a neighbouring sample); `slow h` (only samples where
+//! that change is below h threshold half-widths are compared).
+//!
+//! `cargo run --release --example whole_record -- BANK CASES SEED [same|finer] [MAX_CHECKED]`
+//! (`SHOW_FAILS=1` prints every sample at which the truth's own simulation fails; results in
+//! docs/severity.md).
+#[path = "common/study.rs"]
+mod study;
+
+use study::Study;
+use wheelflat::identify::coverage::{self, severity_class};
+use wheelflat::identify::{Extras, Identifier};
+use wheelflat::model::{Record, Simulator};
+
+#[derive(Clone, Copy, Debug)]
+enum Rule {
+    Plain,
+    Shift(usize),
+    Rate(f64),
+    Slow(f64),
+    /// Both series smoothed by the three-tap [1, 2, 1]/4 filter (zero at the Nyquist
+    /// frequency) before a plain comparison.
+    Smooth,
+    /// Plain where the smoothed measured force is at least this many kN, smoothed below
+    /// (the rail's ringing after the wheels have passed is small; the impacts are not).
+    SmoothBelow(f64),
+}
+
+impl Rule {
+    fn name(&self) -> String {
+        match self {
+            Rule::Plain => "plain".into(),
+            Rule::Shift(w) => format!("shift ±{w}"),
+            Rule::Rate(b) => format!("rate {b}"),
+            Rule::Slow(h) => format!("slow < {h}"),
+            Rule::Smooth => "smooth [1,2,1]/4".into(),
+            Rule::SmoothBelow(f) => format!("smooth below {f} kN"),
+        }
+    }
+}
+
+const RULES: [Rule; 11] = [
+    Rule::Plain,
+    Rule::Smooth,
+    Rule::SmoothBelow(5.0),
+    Rule::Shift(1),
+    Rule::Shift(2),
+    Rule::Rate(0.5),
+    Rule::Rate(1.0),
+    Rule::Rate(2.0),
+    Rule::Slow(2.0),
+    Rule::Slow(1.0),
+    Rule::Slow(0.5),
+];
+
+/// Whether prediction `g` (one sensor window, kN) passes measured `y` under `rule`.
+fn passes(id: &Identifier, y: &[f64], g: &[f64], p: f64, rule: Rule) -> bool {
+    let n = y.len().min(g.len());
+    if let Rule::Smooth = rule {
+        let smooth = |x: &[f64]| -> Vec<f64> {
+            (0..n)
+                .map(|k| {
+                    let a = x[k.saturating_sub(1)];
+                    let b = x[(k + 1).min(n - 1)];
+                    0.25 * a + 0.5 * x[k] + 0.25 * b
+                })
+                .collect()
+        };
+        return passes(id, &smooth(y), &smooth(g), p, Rule::Plain);
+    }
+    if let Rule::SmoothBelow(f) = rule {
+        let smooth_at = |x: &[f64], k: usize| {
+            0.25 * x[k.saturating_sub(1)] + 0.5 * x[k] + 0.25 * x[(k + 1).min(n - 1)]
+        };
+        return (0..n).all(|k| {
+            let ys = smooth_at(y, k);
+            let (yv, gv) = if ys.abs() < f {
+                (ys, smooth_at(g, k))
+            } else {
+                (y[k], g[k])
+            };
+            let (lo, hi) = id.band(yv, gv, p);
+            (lo..=hi).contains(&(gv - yv))
+        });
+    }
+    (0..n).all(|k| {
+        let change = [k.wrapping_sub(1), k + 1]
+            .iter()
+            .filter(|&&j| j < n)
+            .map(|&j| (g[j] - g[k]).abs())
+            .fold(0.0, f64::max);
+        let (lo, hi) = id.band(y[k], g[k], p);
+        let inside = |gv: f64, lo: f64, hi: f64| (lo..=hi).contains(&(gv - y[k]));
+        match rule {
+            Rule::Plain => inside(g[k], lo, hi),
+            Rule::Shift(w) => {
+                let win = &g[k.saturating_sub(w)..(k + w + 1).min(n)];
+                let gmin = win.iter().copied().fold(f64::INFINITY, f64::min);
+                let gmax = win.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                // Some value of the window's range lies within the band around y.
+                gmax - y[k] >= lo && gmin - y[k] <= hi
+            }
+            Rule::Rate(b) => inside(g[k], lo - b * change, hi + b * change),
+            Rule::Slow(h) => change >= h * 0.5 * (hi - lo) || inside(g[k], lo, hi),
+            Rule::Smooth | Rule::SmoothBelow(_) => unreachable!("smoothed above"),
+        }
+    })
+}
+
+fn main() {
+    let study = Study::from_args("[MAX_CHECKED]");
+    let (cases, seed) = (study.cases, study.seed);
+    let max_checked: usize = study.arg(5, 400);
+    let Study {
+        bank,
+        cal,
+        meas_cal,
+        ..
+    } = study;
+    let (insp, urg, _) = coverage::severity_limits(&cal);
+    let id = Identifier::new(bank, cal.identification.clone()).unwrap();
+    let axes = id.bank().metadata().sensors.clone();
+    let sim = Simulator::new(&cal).unwrap();
+    // Per rule: cases whose truth fails, cases where a higher-class candidate passes.
+    let mut truth_fails = vec![0usize; RULES.len()];
+    let mut higher = vec![0usize; RULES.len()];
+    for (case, flat) in coverage::truths(&cal, cases, seed).iter().enumerate() {
+        let (m, t) = coverage::case(&meas_cal, flat, seed, case).unwrap();
+        let out = id.identify(&m, None, Extras::NONE).unwrap();
+        let cls = severity_class(t.l0_mm, insp, urg);
+        let total: usize = out.series.iter().map(|s| s.values_kn.len()).sum();
+        let p = out.phi.powf(1.0 / total.max(1) as f64);
+        let used: Vec<usize> = out
+            .series
+            .iter()
+            .map(|s| axes.iter().position(|x| x.name == s.sensor).unwrap())
+            .collect();
+        let resp = sim.run(Some(flat), Record::default()).unwrap();
+        let truth_kn: Vec<Vec<f64>> = axes
+            .iter()
+            .enumerate()
+            .map(|(si, a)| {
+                resp.window(si, a.first_sample, a.samples)
+                    .iter()
+                    .map(|v| (v / 1e3) as f32 as f64)
+                    .collect()
+            })
+            .collect();
+        if std::env::var_os("SHOW_FAILS").is_some() {
+            for (ser, &ax) in out.series.iter().zip(&used) {
+                let (y, g) = (&ser.values_kn, &truth_kn[ax]);
+                for k in 0..y.len().min(g.len()) {
+                    let (lo, hi) = id.band(y[k], g[k], p);
+                    if !(lo..=hi).contains(&(g[k] - y[k])) {
+                        let nb = |j: usize| g.get(j).copied().unwrap_or(f64::NAN);
+                        println!(
+                            "    case {case} {} k {k}: y {:.1} g {:.1} band [{:.1}, {:.1}] g[k-2..k+2] {:.1} {:.1} {:.1} {:.1} {:.1}",
+                            ser.sensor, y[k], g[k], lo, hi,
+                            nb(k.wrapping_sub(2)), nb(k.wrapping_sub(1)), g[k], nb(k + 1), nb(k + 2)
+                        );
+                    }
+                }
+            }
+        }
+        let judge = |g: &[Vec<f64>], rule: Rule| {
+            out.series
+                .iter()
+                .zip(&used)
+                .all(|(ser, &ax)| passes(&id, &ser.values_kn, &g[ax], p, rule))
+        };
+        let mut members = out.cms.clone();
+        members.sort_by(|x, y| y.l0_mm.total_cmp(&x.l0_mm));
+        let higher_members: Vec<Vec<Vec<f64>>> = members
+            .iter()
+            .take_while(|s| severity_class(s.l0_mm, insp, urg) > cls)
+            .take(max_checked)
+            .map(|s| {
+                let stored = id.bank().read_instance(s.instance as usize).unwrap();
+                stored
+                    .forces_kn
+                    .iter()
+                    .map(|f| f.iter().map(|&v| v as f64).collect())
+                    .collect()
+            })
+            .collect();
+        let mut line = format!(
+            "{case:>3} L {:6.1} d {:.3} c {:.3} L0 {:5.1} cls {cls} higher {:>3} |",
+            t.length_mm,
+            t.depth_mm,
+            t.curvature_mm,
+            t.l0_mm,
+            higher_members.len()
+        );
+        for (r, &rule) in RULES.iter().enumerate() {
+            let ok = judge(&truth_kn, rule);
+            let hi = higher_members.iter().any(|g| judge(g, rule));
+            truth_fails[r] += usize::from(!ok);
+            higher[r] += usize::from(hi);
+            line += &format!(
+                " {}{}",
+                if ok { 'T' } else { '-' },
+                if hi { 'H' } else { '.' }
+            );
+        }
+        println!("{line}");
+    }
+    println!("\n| rule | truth (bank model) rejected | higher class passes | truth kept (no widening) | severity right at most |");
+    println!("|---|---|---|---|---|");
+    for (r, rule) in RULES.iter().enumerate() {
+        println!(
+            "| {} | {} of {cases} | {} of {cases} | {:.2} | {:.2} |",
+            rule.name(),
+            truth_fails[r],
+            higher[r],
+            1.0 - truth_fails[r] as f64 / cases as f64,
+            1.0 - higher[r] as f64 / cases as f64
+        );
+    }
+}
