@@ -14,36 +14,21 @@
 #[path = "common/study.rs"]
 mod study;
 
-use study::Study;
+use study::{Study, WholeCase};
 use wheelflat::identify::coverage::{self, severity_class};
-use wheelflat::identify::{Extras, Identifier};
 
 fn main() {
     let study = Study::from_args("[MAX_CHECKED]");
     let (cases, seed) = (study.cases, study.seed);
     let max_checked: usize = study.arg(5, 400);
-    let Study {
-        bank,
-        cal,
-        meas_cal,
-        ..
-    } = study;
+    let (id, cal, meas_cal) = study.into_identifier();
     let (insp, urg, _) = coverage::severity_limits(&cal);
-    let id = Identifier::new(bank, cal.identification.clone()).unwrap();
-    let axes = id.bank().metadata().sensors.clone();
     let (mut higher, mut truth_class_only, mut nothing) = (0usize, 0usize, 0usize);
     for (case, flat) in coverage::truths(&cal, cases, seed).iter().enumerate() {
         let t0 = std::time::Instant::now();
-        let (m, t) = coverage::case(&meas_cal, flat, seed, case).unwrap();
-        let out = id.identify(&m, None, Extras::NONE).unwrap();
-        let cls = severity_class(t.l0_mm, insp, urg);
+        let c = WholeCase::new(&id, &meas_cal, flat, seed, case);
+        let (out, t, cls, p, used) = (&c.out, &c.truth, c.class, c.p, &c.axes);
         let total: usize = out.series.iter().map(|s| s.values_kn.len()).sum();
-        let p = out.phi.powf(1.0 / total.max(1) as f64);
-        let used: Vec<usize> = out
-            .series
-            .iter()
-            .map(|s| axes.iter().position(|x| x.name == s.sensor).unwrap())
-            .collect();
         let mut members = out.cms.clone();
         members.sort_by(|x, y| y.l0_mm.total_cmp(&x.l0_mm));
         let mut found: Option<(u32, f64)> = None;
@@ -54,7 +39,7 @@ fn main() {
             }
             checked += 1;
             let stored = id.bank().read_instance(s.instance as usize).unwrap();
-            let passes = out.series.iter().zip(&used).all(|(ser, &ax)| {
+            let passes = out.series.iter().zip(used).all(|(ser, &ax)| {
                 ser.values_kn
                     .iter()
                     .zip(&stored.forces_kn[ax])

@@ -24,9 +24,9 @@
 #[path = "common/study.rs"]
 mod study;
 
-use study::Study;
+use study::{Study, WholeCase};
 use wheelflat::identify::coverage::{self, severity_class};
-use wheelflat::identify::{Extras, Identifier};
+use wheelflat::identify::Identifier;
 use wheelflat::model::{Record, Simulator};
 
 #[derive(Clone, Copy, Debug)]
@@ -128,30 +128,16 @@ fn main() {
     let study = Study::from_args("[MAX_CHECKED]");
     let (cases, seed) = (study.cases, study.seed);
     let max_checked: usize = study.arg(5, 400);
-    let Study {
-        bank,
-        cal,
-        meas_cal,
-        ..
-    } = study;
+    let (id, cal, meas_cal) = study.into_identifier();
     let (insp, urg, _) = coverage::severity_limits(&cal);
-    let id = Identifier::new(bank, cal.identification.clone()).unwrap();
     let axes = id.bank().metadata().sensors.clone();
     let sim = Simulator::new(&cal).unwrap();
     // Per rule: cases whose truth fails, cases where a higher-class candidate passes.
     let mut truth_fails = vec![0usize; RULES.len()];
     let mut higher = vec![0usize; RULES.len()];
     for (case, flat) in coverage::truths(&cal, cases, seed).iter().enumerate() {
-        let (m, t) = coverage::case(&meas_cal, flat, seed, case).unwrap();
-        let out = id.identify(&m, None, Extras::NONE).unwrap();
-        let cls = severity_class(t.l0_mm, insp, urg);
-        let total: usize = out.series.iter().map(|s| s.values_kn.len()).sum();
-        let p = out.phi.powf(1.0 / total.max(1) as f64);
-        let used: Vec<usize> = out
-            .series
-            .iter()
-            .map(|s| axes.iter().position(|x| x.name == s.sensor).unwrap())
-            .collect();
+        let c = WholeCase::new(&id, &meas_cal, flat, seed, case);
+        let (out, t, cls, p, used) = (&c.out, &c.truth, c.class, c.p, &c.axes);
         let resp = sim.run(Some(flat), Record::default()).unwrap();
         let truth_kn: Vec<Vec<f64>> = axes
             .iter()
@@ -164,7 +150,7 @@ fn main() {
             })
             .collect();
         if std::env::var_os("SHOW_FAILS").is_some() {
-            for (ser, &ax) in out.series.iter().zip(&used) {
+            for (ser, &ax) in out.series.iter().zip(used) {
                 let (y, g) = (&ser.values_kn, &truth_kn[ax]);
                 for k in 0..y.len().min(g.len()) {
                     let (lo, hi) = id.band(y[k], g[k], p);
@@ -182,7 +168,7 @@ fn main() {
         let judge = |g: &[Vec<f64>], rule: Rule| {
             out.series
                 .iter()
-                .zip(&used)
+                .zip(used)
                 .all(|(ser, &ax)| passes(&id, &ser.values_kn, &g[ax], p, rule))
         };
         let mut members = out.cms.clone();

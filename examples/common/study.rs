@@ -5,8 +5,10 @@
 
 use std::path::Path;
 use wheelflat::bank::Bank;
-use wheelflat::identify::coverage;
-use wheelflat::model::CheckedCalibration;
+use wheelflat::identify::coverage::{self, severity_class};
+use wheelflat::identify::synth::Truth;
+use wheelflat::identify::{Extras, Identification, Identifier};
+use wheelflat::model::{CheckedCalibration, Flat};
 
 /// A study's bank and cases.
 pub struct Study {
@@ -58,8 +60,62 @@ impl Study {
             .map_or(default, |s| s.parse().expect("a number"))
     }
 
+    /// The bank-only identifier of the study's bank, its calibration and the measurement
+    /// model.
+    pub fn into_identifier(self) -> (Identifier, CheckedCalibration, CheckedCalibration) {
+        let id = Identifier::new(self.bank, self.cal.identification.clone()).unwrap();
+        (id, self.cal, self.meas_cal)
+    }
+
     /// Whether argument `i` is `word`.
     pub fn flag(&self, i: usize, word: &str) -> bool {
         self.args.get(i).is_some_and(|s| s == word)
+    }
+}
+
+/// One seeded case identified by the bank-only method, with what a comparison at every sample
+/// needs.
+pub struct WholeCase {
+    /// The bank-only identification.
+    pub out: Identification,
+    /// The case's truth.
+    pub truth: Truth,
+    /// The truth's severity class.
+    pub class: usize,
+    /// Per-sample probability, Šídák over every sample of every identified window.
+    pub p: f64,
+    /// Each identified series' bank axis.
+    pub axes: Vec<usize>,
+}
+
+impl WholeCase {
+    /// Case `case` of `flat`, its measurement simulated with `meas_cal` (seed `seed + case`).
+    pub fn new(
+        id: &Identifier,
+        meas_cal: &CheckedCalibration,
+        flat: &Flat,
+        seed: u64,
+        case: usize,
+    ) -> WholeCase {
+        let cal = &id.bank().metadata().calibration;
+        let (insp, urg) = (
+            cal.identification.inspect_l0_mm,
+            cal.identification.urgent_l0_mm,
+        );
+        let (m, truth) = coverage::case(meas_cal, flat, seed, case).unwrap();
+        let out = id.identify(&m, None, Extras::NONE).unwrap();
+        let total: usize = out.series.iter().map(|s| s.values_kn.len()).sum();
+        let bank_axes = &id.bank().metadata().sensors;
+        WholeCase {
+            class: severity_class(truth.l0_mm, insp, urg),
+            p: out.phi.powf(1.0 / total.max(1) as f64),
+            axes: out
+                .series
+                .iter()
+                .map(|s| bank_axes.iter().position(|x| x.name == s.sensor).unwrap())
+                .collect(),
+            out,
+            truth,
+        }
     }
 }
