@@ -44,6 +44,11 @@ fn a_run_killed_at_any_moment_resumes_to_the_same_bytes_and_never_shows_a_partia
     args(&mut cmd, &timed);
     assert!(cmd.output().unwrap().status.success());
     let run_ms = t.elapsed().as_millis() as u64;
+    // The CLI's uninterrupted run writes what the library writes.
+    assert!(
+        files(&timed, &[]) == files(&reference, &[]),
+        "the uninterrupted CLI run differs from the reference"
+    );
     let mut state = 26u64;
     let mut killed_before_done = 0;
     for k in 0..kills {
