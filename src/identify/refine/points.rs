@@ -157,7 +157,7 @@ impl Comparison {
             .collect()
     }
 
-    /// A window's value: the sample, or the extreme over the window.
+    /// A window's value: the sample, the extreme over the window, or the smoothed sample.
     pub(super) fn value(at: At, series: impl Fn(usize) -> f32) -> f32 {
         let (_, a, b, kind) = at;
         match kind {
