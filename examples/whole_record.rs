@@ -19,15 +19,17 @@
 //! that change is below h threshold half-widths are compared).
 //!
 //! `cargo run --release --example whole_record -- BANK CASES SEED [same|finer] [MAX_CHECKED]`
-//! (`SHOW_FAILS=1` prints every sample at which the truth's own simulation fails; results in
-//! docs/severity.md).
+//! (`SHOW_FAILS=1` prints every sample at which the truth's own simulation fails;
+//! `CELL_SIMS=n` adds n flats simulated in the cell of each of the 20 higher-class candidates
+//! nearest the class limit; results in docs/severity.md).
 #[path = "common/study.rs"]
 mod study;
 
+use rayon::prelude::*;
 use study::{Study, WholeCase};
 use wheelflat::identify::coverage::{self, severity_class};
 use wheelflat::identify::Identifier;
-use wheelflat::model::{Record, Simulator};
+use wheelflat::model::{Flat, Record, Simulator};
 
 #[derive(Clone, Copy, Debug)]
 enum Rule {
@@ -133,22 +135,32 @@ fn main() {
     let axes = id.bank().metadata().sensors.clone();
     let sim = Simulator::new(&cal).unwrap();
     // Per rule: cases whose truth fails, cases where a higher-class candidate passes.
+    // A flat's windows as the bank stores them (kN, rounded to f32).
+    let record = |flat: &Flat| -> Option<Vec<Vec<f64>>> {
+        let resp = sim.run(Some(flat), Record::default()).ok()?;
+        Some(
+            axes.iter()
+                .enumerate()
+                .map(|(si, a)| {
+                    resp.window(si, a.first_sample, a.samples)
+                        .iter()
+                        .map(|v| (v / 1e3) as f32 as f64)
+                        .collect()
+                })
+                .collect(),
+        )
+    };
+    // CELL_SIMS=n: also n flats simulated in the cell of each of the 20 higher-class
+    // candidates nearest the class limit, kept where their own L0 is of a higher class.
+    let cell_sims: usize = std::env::var("CELL_SIMS").map_or(0, |v| v.parse().unwrap());
+    let radius = cal.vehicle.wheel_radius_m;
+    let pop = cal.population.clone();
     let mut truth_fails = vec![0usize; RULES.len()];
     let mut higher = vec![0usize; RULES.len()];
     for (case, flat) in coverage::truths(&cal, cases, seed).iter().enumerate() {
         let c = WholeCase::new(&id, &meas_cal, flat, seed, case);
         let (out, t, cls, p, used) = (&c.out, &c.truth, c.class, c.p, &c.axes);
-        let resp = sim.run(Some(flat), Record::default()).unwrap();
-        let truth_kn: Vec<Vec<f64>> = axes
-            .iter()
-            .enumerate()
-            .map(|(si, a)| {
-                resp.window(si, a.first_sample, a.samples)
-                    .iter()
-                    .map(|v| (v / 1e3) as f32 as f64)
-                    .collect()
-            })
-            .collect();
+        let truth_kn = record(flat).unwrap();
         if std::env::var_os("SHOW_FAILS").is_some() {
             for (ser, &ax) in out.series.iter().zip(used) {
                 let (y, g) = (&ser.values_kn, &truth_kn[ax]);
@@ -173,7 +185,7 @@ fn main() {
         };
         let mut members = out.cms.clone();
         members.sort_by(|x, y| y.l0_mm.total_cmp(&x.l0_mm));
-        let higher_members: Vec<Vec<Vec<f64>>> = members
+        let mut higher_members: Vec<Vec<Vec<f64>>> = members
             .iter()
             .take_while(|s| severity_class(s.l0_mm, insp, urg) > cls)
             .take(max_checked)
@@ -186,6 +198,43 @@ fn main() {
                     .collect()
             })
             .collect();
+        if cell_sims > 0 {
+            let cells = id.resolution().expect("the bank has cells").cells;
+            let mut near: Vec<_> = members
+                .iter()
+                .filter(|s| severity_class(s.l0_mm, insp, urg) > cls)
+                .collect();
+            near.sort_by(|x, y| x.l0_mm.total_cmp(&y.l0_mm));
+            near.truncate(20);
+            let mut state = seed ^ (case as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+            let mut uniform = move || {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                2.0 * ((state >> 11) as f64 / (1u64 << 53) as f64) - 1.0
+            };
+            let mut flats = Vec::new();
+            for s in near {
+                let h = cells.half_extent(s.instance as usize);
+                for _ in 0..cell_sims {
+                    let l =
+                        (s.length_mm + h[0] * uniform()).clamp(pop.length_mm[0], pop.length_mm[1]);
+                    let d = (s.depth_mm + h[1] * uniform()).clamp(pop.depth_mm[0], pop.depth_mm[1]);
+                    let c = (s.curvature_mm + h[2] * uniform())
+                        .clamp(pop.curvature_mm[0], pop.curvature_mm[1])
+                        .min(0.49 * d);
+                    let x = (s.impact_position_m + h[3] * uniform())
+                        .clamp(pop.impact_position_m[0], pop.impact_position_m[1]);
+                    let l0 = Flat::fresh_length_mm(d, radius);
+                    if severity_class(l0, insp, urg) > cls {
+                        if let Ok(f) = Flat::from_mm(l, d, c, x) {
+                            flats.push(f.on_wheel(s.flat_wheel));
+                        }
+                    }
+                }
+            }
+            higher_members.extend(flats.par_iter().filter_map(&record).collect::<Vec<_>>());
+        }
         let mut line = format!(
             "{case:>3} L {:6.1} d {:.3} c {:.3} L0 {:5.1} cls {cls} higher {:>3} |",
             t.length_mm,
