@@ -15,9 +15,9 @@ mod study;
 
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
-use study::Study;
+use study::{windows_kn, Study};
 use wheelflat::identify::coverage;
-use wheelflat::model::{Flat, Record, Simulator};
+use wheelflat::model::{Flat, Simulator};
 
 /// One cell of the default bank, about (L mm, d mm, c mm, X_p m).
 const CELL: [f64; 4] = [14.0, 0.13, 0.05, 0.005];
@@ -34,18 +34,7 @@ fn main() {
     let p = cal.identification.phi.powf(1.0 / total as f64);
     let record = |x: &[f64; 4]| -> Option<Vec<f64>> {
         let flat = Flat::from_mm(x[0], x[1], x[2], x[3]).ok()?;
-        let resp = sim.run(Some(&flat), Record::default()).ok()?;
-        Some(
-            axes.iter()
-                .enumerate()
-                .flat_map(|(si, a)| {
-                    resp.window(si, a.first_sample, a.samples)
-                        .iter()
-                        .map(|v| v / 1e3)
-                        .collect::<Vec<_>>()
-                })
-                .collect(),
-        )
+        Some(windows_kn(&sim, &axes, &flat)?.concat())
     };
     let truths = coverage::truths(&cal, cases, seed);
     for scale in [1.0, 0.5, 0.25] {

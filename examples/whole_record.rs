@@ -26,10 +26,10 @@
 mod study;
 
 use rayon::prelude::*;
-use study::{Study, WholeCase};
+use study::{windows_kn, Study, WholeCase};
 use wheelflat::identify::coverage::{self, severity_class};
 use wheelflat::identify::Identifier;
-use wheelflat::model::{Flat, Record, Simulator};
+use wheelflat::model::{Flat, Simulator};
 
 #[derive(Clone, Copy, Debug)]
 enum Rule {
@@ -136,20 +136,7 @@ fn main() {
     let sim = Simulator::new(&cal).unwrap();
     // Per rule: cases whose truth fails, cases where a higher-class candidate passes.
     // A flat's windows as the bank stores them (kN, rounded to f32).
-    let record = |flat: &Flat| -> Option<Vec<Vec<f64>>> {
-        let resp = sim.run(Some(flat), Record::default()).ok()?;
-        Some(
-            axes.iter()
-                .enumerate()
-                .map(|(si, a)| {
-                    resp.window(si, a.first_sample, a.samples)
-                        .iter()
-                        .map(|v| (v / 1e3) as f32 as f64)
-                        .collect()
-                })
-                .collect(),
-        )
-    };
+    let record = |flat: &Flat| windows_kn(&sim, &axes, flat);
     // CELL_SIMS=n: also n flats simulated in the cell of each of the 20 higher-class
     // candidates nearest the class limit, kept where their own L0 is of a higher class.
     let cell_sims: usize = std::env::var("CELL_SIMS").map_or(0, |v| v.parse().unwrap());

@@ -4,11 +4,12 @@
 #![allow(dead_code)]
 
 use std::path::Path;
+use wheelflat::bank::schema::SensorAxis;
 use wheelflat::bank::Bank;
 use wheelflat::identify::coverage::{self, severity_class};
 use wheelflat::identify::synth::Truth;
 use wheelflat::identify::{Extras, Identification, Identifier};
-use wheelflat::model::{CheckedCalibration, Flat};
+use wheelflat::model::{CheckedCalibration, Flat, Record, Simulator};
 
 /// A study's bank and cases.
 pub struct Study {
@@ -118,4 +119,21 @@ impl WholeCase {
             truth,
         }
     }
+}
+
+/// `flat` simulated by `sim`: each bank axis's window in kN, rounded to f32 as the bank
+/// stores it; `None` when the simulation fails.
+pub fn windows_kn(sim: &Simulator, axes: &[SensorAxis], flat: &Flat) -> Option<Vec<Vec<f64>>> {
+    let resp = sim.run(Some(flat), Record::default()).ok()?;
+    Some(
+        axes.iter()
+            .enumerate()
+            .map(|(si, a)| {
+                resp.window(si, a.first_sample, a.samples)
+                    .iter()
+                    .map(|v| (v / 1e3) as f32 as f64)
+                    .collect()
+            })
+            .collect(),
+    )
 }
