@@ -13,10 +13,13 @@
 //!   flat it cannot exclude over-calls the case.
 //!
 //! Rules: `plain`; `smooth` (both series filtered ¼, ½, ¼ first); `smooth below f` (plain
-//! where the smoothed measured force is at least f kN, smoothed below); `shift w` (a sample passes when the thresholds around the measurement meet
-//! the prediction's range over ±w samples: timing tolerance); `rate b` (thresholds widened by
+//! where the smoothed measured force is at least f kN, smoothed below); `shift w` (a sample
+//! passes when the thresholds around the measurement meet the prediction's range over ±w
+//! samples: timing tolerance); `rate b` (thresholds widened by
 //! b × the prediction's largest change to a neighbouring sample); `slow h` (only samples where
-//! that change is below h threshold half-widths are compared).
+//! that change is below h threshold half-widths are compared); `every n` and `n busiest`
+//! (plain on a subset of samples, Šídák over the subset: every n-th sample, or the n where the
+//! measurement departs most from its mean over ±10 samples).
 //!
 //! `cargo run --release --example whole_record -- BANK CASES SEED [same|finer] [MAX_CHECKED]`
 //! (`SHOW_FAILS=1` prints every sample at which the truth's own simulation fails;
@@ -43,6 +46,11 @@ enum Rule {
     /// Plain where the smoothed measured force is at least this many kN, smoothed below
     /// (the rail's ringing after the wheels have passed is small; the impacts are not).
     SmoothBelow(f64),
+    /// Plain at every n-th sample only, Šídák over those.
+    Every(usize),
+    /// Plain at the n samples (over all windows) where the measurement departs most from
+    /// its own mean over ±10 samples, Šídák over those.
+    Busiest(usize),
 }
 
 impl Rule {
@@ -54,14 +62,19 @@ impl Rule {
             Rule::Slow(h) => format!("slow < {h}"),
             Rule::Smooth => "smooth [1,2,1]/4".into(),
             Rule::SmoothBelow(f) => format!("smooth below {f} kN"),
+            Rule::Every(n) => format!("every {n}th sample"),
+            Rule::Busiest(n) => format!("{n} busiest samples"),
         }
     }
 }
 
-const RULES: [Rule; 11] = [
+const RULES: [Rule; 14] = [
     Rule::Plain,
     Rule::Smooth,
     Rule::SmoothBelow(5.0),
+    Rule::Every(10),
+    Rule::Busiest(500),
+    Rule::Busiest(200),
     Rule::Shift(1),
     Rule::Shift(2),
     Rule::Rate(0.5),
@@ -122,6 +135,7 @@ fn passes(id: &Identifier, y: &[f64], g: &[f64], p: f64, rule: Rule) -> bool {
             Rule::Rate(b) => inside(g[k], lo - b * change, hi + b * change),
             Rule::Slow(h) => change >= h * 0.5 * (hi - lo) || inside(g[k], lo, hi),
             Rule::Smooth | Rule::SmoothBelow(_) => unreachable!("smoothed above"),
+            Rule::Every(_) | Rule::Busiest(_) => unreachable!("judged on their samples"),
         }
     })
 }
@@ -164,7 +178,41 @@ fn main() {
                 }
             }
         }
+        // The samples a subset rule compares: (series, sample) pairs.
+        let subset = |rule: Rule| -> Vec<(usize, usize)> {
+            match rule {
+                Rule::Every(n) => out
+                    .series
+                    .iter()
+                    .enumerate()
+                    .flat_map(|(si, ser)| (0..ser.values_kn.len()).step_by(n).map(move |k| (si, k)))
+                    .collect(),
+                Rule::Busiest(n) => {
+                    let mut all: Vec<(f64, usize, usize)> = Vec::new();
+                    for (si, ser) in out.series.iter().enumerate() {
+                        let y = &ser.values_kn;
+                        for k in 0..y.len() {
+                            let w = &y[k.saturating_sub(10)..(k + 11).min(y.len())];
+                            let mean = w.iter().sum::<f64>() / w.len() as f64;
+                            all.push(((y[k] - mean).abs(), si, k));
+                        }
+                    }
+                    all.sort_by(|a, b| b.0.total_cmp(&a.0));
+                    all.iter().take(n).map(|&(_, si, k)| (si, k)).collect()
+                }
+                _ => Vec::new(),
+            }
+        };
         let judge = |g: &[Vec<f64>], rule: Rule| {
+            if let Rule::Every(_) | Rule::Busiest(_) = rule {
+                let at = subset(rule);
+                let p = out.phi.powf(1.0 / at.len().max(1) as f64);
+                return at.iter().all(|&(si, k)| {
+                    let (y, gk) = (out.series[si].values_kn[k], g[used[si]][k]);
+                    let (lo, hi) = id.band(y, gk, p);
+                    (lo..=hi).contains(&(gk - y))
+                });
+            }
             out.series
                 .iter()
                 .zip(used)
