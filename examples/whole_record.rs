@@ -12,10 +12,10 @@
 //!   most `MAX_CHECKED`): one that passes means an answer judged by this rule and keeping every
 //!   flat it cannot exclude over-calls the case.
 //!
-//! Rules: `plain`; `smooth` (both series filtered ¼, ½, ¼ first); `smooth below f` (plain
-//! where the smoothed measured force is at least f kN, smoothed below); `shift w` (a sample
-//! passes when the thresholds around the measurement meet the prediction's range over ±w
-//! samples: timing tolerance); `rate b` (thresholds widened by
+//! Rules: `plain`; `smooth below f` (both series filtered ¼, ½, ¼ where the smoothed
+//! measured force is below f kN, plain elsewhere; `smooth` when f is infinite); `shift w` (a
+//! sample passes when the thresholds around the measurement meet the prediction's range over
+//! ±w samples: timing tolerance); `rate b` (thresholds widened by
 //! b × the prediction's largest change to a neighbouring sample); `slow h` (only samples where
 //! that change is below h threshold half-widths are compared); `every n` and `n busiest`
 //! (plain on a subset of samples, Šídák over the subset: every n-th sample, or the n where the
@@ -41,10 +41,9 @@ enum Rule {
     Rate(f64),
     Slow(f64),
     /// Both series smoothed by the three-tap [1, 2, 1]/4 filter (zero at the Nyquist
-    /// frequency) before a plain comparison.
-    Smooth,
-    /// Plain where the smoothed measured force is at least this many kN, smoothed below
-    /// (the rail's ringing after the wheels have passed is small; the impacts are not).
+    /// frequency) where the smoothed measured force is below this many kN (infinite: every
+    /// sample), plain elsewhere (the rail's ringing after the wheels have passed is small; the
+    /// impacts are not).
     SmoothBelow(f64),
     /// Plain at every n-th sample only, Šídák over those.
     Every(usize),
@@ -60,7 +59,7 @@ impl Rule {
             Rule::Shift(w) => format!("shift ±{w}"),
             Rule::Rate(b) => format!("rate {b}"),
             Rule::Slow(h) => format!("slow < {h}"),
-            Rule::Smooth => "smooth [1,2,1]/4".into(),
+            Rule::SmoothBelow(f) if f.is_infinite() => "smooth [1,2,1]/4".into(),
             Rule::SmoothBelow(f) => format!("smooth below {f} kN"),
             Rule::Every(n) => format!("every {n}th sample"),
             Rule::Busiest(n) => format!("{n} busiest samples"),
@@ -70,7 +69,7 @@ impl Rule {
 
 const RULES: [Rule; 14] = [
     Rule::Plain,
-    Rule::Smooth,
+    Rule::SmoothBelow(f64::INFINITY),
     Rule::SmoothBelow(5.0),
     Rule::Every(10),
     Rule::Busiest(500),
@@ -88,18 +87,6 @@ const RULES: [Rule; 14] = [
 /// Whether prediction `g` (one sensor window, kN) passes measured `y` under `rule`.
 fn passes(id: &Identifier, y: &[f64], g: &[f64], p: f64, rule: Rule) -> bool {
     let n = y.len().min(g.len());
-    if let Rule::Smooth = rule {
-        let smooth = |x: &[f64]| -> Vec<f64> {
-            (0..n)
-                .map(|k| {
-                    let a = x[k.saturating_sub(1)];
-                    let b = x[(k + 1).min(n - 1)];
-                    0.25 * a + 0.5 * x[k] + 0.25 * b
-                })
-                .collect()
-        };
-        return passes(id, &smooth(y), &smooth(g), p, Rule::Plain);
-    }
     if let Rule::SmoothBelow(f) = rule {
         let smooth_at = |x: &[f64], k: usize| {
             0.25 * x[k.saturating_sub(1)] + 0.5 * x[k] + 0.25 * x[(k + 1).min(n - 1)]
@@ -134,7 +121,7 @@ fn passes(id: &Identifier, y: &[f64], g: &[f64], p: f64, rule: Rule) -> bool {
             }
             Rule::Rate(b) => inside(g[k], lo - b * change, hi + b * change),
             Rule::Slow(h) => change >= h * 0.5 * (hi - lo) || inside(g[k], lo, hi),
-            Rule::Smooth | Rule::SmoothBelow(_) => unreachable!("smoothed above"),
+            Rule::SmoothBelow(_) => unreachable!("smoothed above"),
             Rule::Every(_) | Rule::Busiest(_) => unreachable!("judged on their samples"),
         }
     })

@@ -218,25 +218,7 @@ pub fn greedy_joint_entropy<B: AsRef<[u16]> + Sync>(
     let gain_of = |bins: &[u16], active: &[u32], groups: &[(usize, usize)], t: &mut Tally| {
         let mut gain = 0.0;
         for &(start, len) in groups {
-            let run = &active[start..start + len];
-            let mut cells = 0.0;
-            if len < LANES_FROM {
-                count_run(bins, run, &mut t.counts, &mut t.touched);
-                for &b in t.touched.iter() {
-                    cells += clog[t.counts[b as usize] as usize];
-                    t.counts[b as usize] = 0;
-                }
-            } else {
-                count_run_lanes(bins, run, &mut t.lanes, &mut t.seen, &mut t.touched);
-                for &b in t.touched.iter() {
-                    let l = &mut t.lanes[b as usize];
-                    cells += clog[(l[0] + l[1] + l[2] + l[3]) as usize];
-                    *l = [0; 4];
-                    t.seen[b as usize] = false;
-                }
-            }
-            t.touched.clear();
-            gain += clog[len] - cells;
+            gain += clog[len] - t.cells(bins, &active[start..start + len], &clog);
         }
         gain / n as f64
     };
@@ -349,6 +331,35 @@ impl Tally {
             seen: vec![false; max_bins],
             touched: Vec::with_capacity(64),
         }
+    }
+
+    /// `Σ c·log2(c)` over the bins of the instances in `run` (`clog` from [`clog_table`]),
+    /// summed in first-seen bin order whichever way they are counted; leaves every entry zero.
+    fn cells(&mut self, bins: &[u16], run: &[u32], clog: &[f64]) -> f64 {
+        let mut cells = 0.0;
+        if run.len() < LANES_FROM {
+            count_run(bins, run, &mut self.counts, &mut self.touched);
+            for &b in self.touched.iter() {
+                cells += clog[self.counts[b as usize] as usize];
+                self.counts[b as usize] = 0;
+            }
+        } else {
+            count_run_lanes(
+                bins,
+                run,
+                &mut self.lanes,
+                &mut self.seen,
+                &mut self.touched,
+            );
+            for &b in self.touched.iter() {
+                let l = &mut self.lanes[b as usize];
+                cells += clog[(l[0] + l[1] + l[2] + l[3]) as usize];
+                *l = [0; 4];
+                self.seen[b as usize] = false;
+            }
+        }
+        self.touched.clear();
+        cells
     }
 }
 
