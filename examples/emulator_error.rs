@@ -49,12 +49,7 @@ fn main() {
             ];
             let Some(y) = record(&t) else { continue };
             let mut state = seed ^ (case as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-            let mut uniform = || {
-                state = state
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (state >> 11) as f64 / (1u64 << 53) as f64
-            };
+            let mut uniform = || study::uniform(&mut state);
             let clamp = |v: f64, r: [f64; 2]| v.clamp(r[0], r[1]);
             let xs: Vec<[f64; 4]> = (0..m)
                 .map(|_| {

@@ -229,12 +229,7 @@ fn main() {
             near.sort_by(|x, y| x.l0_mm.total_cmp(&y.l0_mm));
             near.truncate(20);
             let mut state = seed ^ (case as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-            let mut uniform = move || {
-                state = state
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                2.0 * ((state >> 11) as f64 / (1u64 << 53) as f64) - 1.0
-            };
+            let mut uniform = move || 2.0 * study::uniform(&mut state) - 1.0;
             let mut flats = Vec::new();
             for s in near {
                 let h = cells.half_extent(s.instance as usize);

@@ -137,3 +137,12 @@ pub fn windows_kn(sim: &Simulator, axes: &[SensorAxis], flat: &Flat) -> Option<V
             .collect(),
     )
 }
+
+/// Uniform [0, 1) from a 64-bit LCG step of `state` (the studies' own draws; the crate's
+/// generator is internal to it).
+pub fn uniform(state: &mut u64) -> f64 {
+    *state = state
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    (*state >> 11) as f64 / (1u64 << 53) as f64
+}

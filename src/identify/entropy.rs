@@ -577,8 +577,8 @@ mod tests {
             let mut run: Vec<u32> = (0..n as u32).collect();
             let mut state = order_seed;
             for i in (1..n).rev() {
-                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                run.swap(i, (state >> 33) as usize % (i + 1));
+                let u = crate::identify::uncertainty::uniform(&mut state);
+                run.swap(i, (u * (i + 1) as f64) as usize);
             }
             let (mut counts, mut touched) = (vec![0u32; 12], Vec::new());
             count_run(&bins, &run, &mut counts, &mut touched);
