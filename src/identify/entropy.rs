@@ -7,13 +7,15 @@
 //!
 //! Joint entropy of a set of points is the entropy of the partition of the instances by their
 //! tuple of bins. Greedy selection adds, each step, the point that raises it most, and stops
-//! when the gain drops below α. The partition is kept as groups of instances (contiguous runs
-//! of a permutation) and *refined* by the chosen point's bins, so evaluating a candidate costs
-//! one pass over the instances that still share a group with another — singletons can gain
-//! nothing and are skipped. With `H = log2 N − (1/N)·Σ_cells c·log2 c`, the gain of a candidate
-//! is `(1/N)·Σ_groups (n_g·log2 n_g − Σ_b c_gb·log2 c_gb)`.
+//! when the gain drops below α. With `H = log2 N − (1/N)·Σ_cells c·log2 c`, the gain of a
+//! candidate is `(1/N)·Σ_groups (n_g·log2 n_g − Σ_b c_gb·log2 c_gb)` over the groups of the
+//! partition so far. The partition and the gains are counted over each point's instances
+//! outside its most populated bin only ([`super::sparse`]): a quarter of the instances on the
+//! default bank.
 
 use rayon::prelude::*;
+
+use super::sparse::{GroupTally, Groups, Sparse};
 
 /// The most bins a point has: a prediction more than this many bin widths above the point's
 /// smallest shares the last bin. (The default uncertainty table gives a few hundred bins at
@@ -30,29 +32,49 @@ pub struct Binned<B = Vec<u16>> {
     pub nbins: usize,
     /// Shannon entropy of the bins (bits).
     pub entropy_bits: f64,
+    /// The instances outside the most populated bin, by bin (what the selection counts).
+    pub others: Sparse,
+}
+
+/// What binning finds besides the bins: their number, entropy and the instances outside the
+/// most populated one.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Histogram {
+    /// Number of bins.
+    pub nbins: usize,
+    /// Shannon entropy of the bins (bits).
+    pub entropy_bits: f64,
+    /// The instances outside the most populated bin, by bin.
+    pub others: Sparse,
 }
 
 /// Bins `values` with width `width` starting at their minimum (at most [`MAX_BINS`] bins).
 pub fn bin_predictions(values: &[f32], width: f64) -> Binned {
     let mut bins = vec![0; values.len()];
-    let (nbins, entropy_bits) = bin_into(values, width, &mut bins);
+    let h = bin_into(values, width, &mut bins);
     Binned {
         bins,
-        nbins,
-        entropy_bits,
+        nbins: h.nbins,
+        entropy_bits: h.entropy_bits,
+        others: h.others,
     }
 }
 
-/// Bins `values` into `bins` (one per value): returns the number of bins and their entropy.
+/// Bins `values` into `bins` (one per value): returns the number of bins, their entropy and
+/// the instances outside the most populated bin.
 ///
 /// Three passes, each written so the compiler vectorises it or keeps it free of chains: the
 /// range in eight lanes; the bin numbers; the counts in four interleaved tables, so that
 /// instances in the same bin one after the other do not wait on each other's increment.
 /// The result is the same, bit for bit, as binning one value at a time.
-pub fn bin_into(values: &[f32], width: f64, bins: &mut [u16]) -> (usize, f64) {
+pub fn bin_into(values: &[f32], width: f64, bins: &mut [u16]) -> Histogram {
     assert_eq!(values.len(), bins.len(), "one bin per value");
     if values.is_empty() {
-        return (0, 0.0);
+        return Histogram {
+            nbins: 0,
+            entropy_bits: 0.0,
+            others: Sparse::default(),
+        };
     }
     // The range; `<` skips a NaN as `f32::min` does (the simulator refuses a non-finite state,
     // so a bank holds none).
@@ -115,22 +137,23 @@ pub fn bin_into(values: &[f32], width: f64, bins: &mut [u16]) -> (usize, f64) {
     for (i, c) in c0.iter_mut().enumerate() {
         *c += c1[i] + c2[i] + c3[i];
     }
-    (nbins, entropy_of_counts(c0, values.len()))
+    Histogram {
+        nbins,
+        entropy_bits: entropy_of_counts(c0, values.len()),
+        others: Sparse::new(bins, c0),
+    }
 }
 
 /// Views a buffer of binned columns (`n` bins each, as [`bin_into`] wrote them) with their
-/// number of bins and entropy, as [`greedy_joint_entropy`] reads them.
-pub fn binned_columns<'a>(
-    bins: &'a [u16],
-    n: usize,
-    counts: &[(usize, f64)],
-) -> Vec<Binned<&'a [u16]>> {
+/// number, entropy and other instances, as [`greedy_joint_entropy`] reads them.
+pub fn binned_columns(bins: &[u16], n: usize, hists: Vec<Histogram>) -> Vec<Binned<&[u16]>> {
     bins.chunks(n.max(1))
-        .zip(counts)
-        .map(|(b, &(nbins, entropy_bits))| Binned {
+        .zip(hists)
+        .map(|(b, h)| Binned {
             bins: b,
-            nbins,
-            entropy_bits,
+            nbins: h.nbins,
+            entropy_bits: h.entropy_bits,
+            others: h.others,
         })
         .collect()
 }
@@ -188,8 +211,9 @@ pub struct Selection {
 /// Joint entropy is submodular (a point never gains more after others have been chosen), so
 /// the selection is *lazy* (Minoux): every candidate keeps its last gain as an upper bound and
 /// only the candidate with the highest bound is re-evaluated, until one is best with a fresh
-/// gain — the same choice as re-evaluating all, at a fraction of the work. Only the *active*
-/// instances (those still sharing a group with another) are visited.
+/// gain — the same choice as re-evaluating all, at a fraction of the work. An evaluation visits
+/// the candidate's instances outside its most populated bin only, skipping those alone in
+/// their group.
 pub fn greedy_joint_entropy<B: AsRef<[u16]> + Sync>(
     candidates: &[Binned<B>],
     allowed: &[usize],
@@ -206,22 +230,9 @@ pub fn greedy_joint_entropy<B: AsRef<[u16]> + Sync>(
     }
     let clog = clog_table(n);
     let threads = rayon::current_num_threads().max(1);
-    let max_bins = candidates.iter().map(|c| c.nbins).max().unwrap_or(1).max(1);
-    let mut part = Partition {
-        active: (0..n as u32).collect(),
-        groups: vec![(0, n)],
-    };
-    // The next step's partition and the refined shares after the first, one a thread: reused
-    // from step to step.
-    let mut next = Partition::default();
-    let mut shares = Vec::new();
-    let gain_of = |bins: &[u16], active: &[u32], groups: &[(usize, usize)], t: &mut Tally| {
-        let mut gain = 0.0;
-        for &(start, len) in groups {
-            gain += clog[len] - t.cells(bins, &active[start..start + len], &clog);
-        }
-        gain / n as f64
-    };
+    let mut groups = Groups::whole(n);
+    // One counting table a thread.
+    let mut tallies: Vec<GroupTally> = (0..threads).map(|_| GroupTally::default()).collect();
     let mut remaining: Vec<usize> = allowed.to_vec();
     // First round: the gains are the single-point entropies, computed while binning.
     let mut bounds: Vec<f64> = remaining
@@ -230,7 +241,7 @@ pub fn greedy_joint_entropy<B: AsRef<[u16]> + Sync>(
         .collect();
     let mut fresh = vec![true; remaining.len()];
     let mut joint = 0.0;
-    while !remaining.is_empty() && sel.order.len() < max_points && !part.groups.is_empty() {
+    while !remaining.is_empty() && sel.order.len() < max_points {
         let best = loop {
             let pos = bounds
                 .iter()
@@ -248,25 +259,26 @@ pub fn greedy_joint_entropy<B: AsRef<[u16]> + Sync>(
             if fresh[pos] || bounds[pos] < alpha_bits || bounds[pos] <= 1e-12 {
                 break pos;
             }
-            // Re-evaluate the stale candidates with the highest bounds, one per thread, in
+            // Re-evaluate the stale candidates with the highest bounds, a few per thread, in
             // parallel; the choice is the same as one at a time (a stale bound only ever
-            // falls when refreshed).
+            // falls when refreshed). A step re-evaluates about a seventh of the candidates
+            // (9 of 60, 21 of 150 on the default bank), and each round is a hand-over between
+            // threads: one candidate a thread below 40 candidates, one more each 40 more, up to
+            // four (docs/performance.md#cold-start-and-watch).
             let mut stale: Vec<usize> = (0..remaining.len()).filter(|&p| !fresh[p]).collect();
             stale.sort_by(|&a, &b| bounds[b].total_cmp(&bounds[a]).then(a.cmp(&b)));
-            stale.truncate(threads);
+            let per = (1 + remaining.len() / 40).min(4);
+            stale.truncate(threads * per);
             let gains: Vec<f64> = stale
-                .par_iter()
-                .map_init(
-                    || Tally::new(max_bins),
-                    |tally, &p| {
-                        gain_of(
-                            candidates[remaining[p]].bins.as_ref(),
-                            &part.active,
-                            &part.groups,
-                            tally,
-                        )
-                    },
-                )
+                .par_chunks(per)
+                .zip(tallies.par_iter_mut())
+                .flat_map_iter(|(ps, tally)| {
+                    let gain = |&p: &usize| {
+                        let others = &candidates[remaining[p]].others;
+                        tally.gain_cells(others, &groups, &clog) / n as f64
+                    };
+                    ps.iter().map(gain).collect::<Vec<_>>()
+                })
                 .collect();
             for (&p, g) in stale.iter().zip(gains) {
                 bounds[p] = g;
@@ -284,227 +296,10 @@ pub fn greedy_joint_entropy<B: AsRef<[u16]> + Sync>(
         sel.order.push(chosen);
         sel.joint_bits.push(joint);
 
-        let chosen = &candidates[chosen];
-        part.refine(
-            chosen.bins.as_ref(),
-            chosen.nbins,
-            threads,
-            &mut next,
-            &mut shares,
-        );
-        std::mem::swap(&mut part, &mut next);
+        groups.refine(&candidates[chosen].others);
         fresh.iter_mut().for_each(|f| *f = false);
     }
     sel
-}
-
-/// Counts the bins of the instances in `run` into `counts` (zero on entry), listing in
-/// `touched` each bin the first time it is seen. The caller reads the counts in `touched` order
-/// and sets them back to zero.
-#[inline]
-fn count_run(bins: &[u16], run: &[u32], counts: &mut [u32], touched: &mut Vec<u16>) {
-    for &k in run {
-        let b = bins[k as usize];
-        if counts[b as usize] == 0 {
-            touched.push(b);
-        }
-        counts[b as usize] += 1;
-    }
-}
-
-/// Groups of at least this many instances are counted in four lanes (`count_run_lanes`).
-const LANES_FROM: usize = 64;
-
-/// One thread's counting tables for a gain evaluation; every entry is zero between groups.
-struct Tally {
-    counts: Vec<u32>,
-    lanes: Vec<[u32; 4]>,
-    seen: Vec<bool>,
-    touched: Vec<u16>,
-}
-
-impl Tally {
-    fn new(max_bins: usize) -> Tally {
-        Tally {
-            counts: vec![0; max_bins],
-            lanes: vec![[0; 4]; max_bins],
-            seen: vec![false; max_bins],
-            touched: Vec::with_capacity(64),
-        }
-    }
-
-    /// `Σ c·log2(c)` over the bins of the instances in `run` (`clog` from [`clog_table`]),
-    /// summed in first-seen bin order whichever way they are counted; leaves every entry zero.
-    fn cells(&mut self, bins: &[u16], run: &[u32], clog: &[f64]) -> f64 {
-        let mut cells = 0.0;
-        if run.len() < LANES_FROM {
-            count_run(bins, run, &mut self.counts, &mut self.touched);
-            for &b in self.touched.iter() {
-                cells += clog[self.counts[b as usize] as usize];
-                self.counts[b as usize] = 0;
-            }
-        } else {
-            count_run_lanes(
-                bins,
-                run,
-                &mut self.lanes,
-                &mut self.seen,
-                &mut self.touched,
-            );
-            for &b in self.touched.iter() {
-                let l = &mut self.lanes[b as usize];
-                cells += clog[(l[0] + l[1] + l[2] + l[3]) as usize];
-                *l = [0; 4];
-                self.seen[b as usize] = false;
-            }
-        }
-        self.touched.clear();
-        cells
-    }
-}
-
-/// [`count_run`] with the counts spread over four lanes (instance j into lane j mod 4), so that
-/// a run of instances in the same bin is four chains of increments, not one. `touched` lists
-/// the bins in the same first-seen order as `count_run`; a bin's count is its lanes' sum.
-#[inline]
-fn count_run_lanes(
-    bins: &[u16],
-    run: &[u32],
-    lanes: &mut [[u32; 4]],
-    seen: &mut [bool],
-    touched: &mut Vec<u16>,
-) {
-    let mut quads = run.chunks_exact(4);
-    for q in &mut quads {
-        for (l, &k) in q.iter().enumerate() {
-            let b = bins[k as usize] as usize;
-            if !seen[b] {
-                seen[b] = true;
-                touched.push(b as u16);
-            }
-            lanes[b][l] += 1;
-        }
-    }
-    for (l, &k) in quads.remainder().iter().enumerate() {
-        let b = bins[k as usize] as usize;
-        if !seen[b] {
-            seen[b] = true;
-            touched.push(b as u16);
-        }
-        lanes[b][l] += 1;
-    }
-}
-
-/// The instances that still share a group with another, in group order, and the groups as
-/// `(start, len)` runs of them (every len ≥ 2): singletons can gain nothing and are dropped.
-#[derive(Debug, Default)]
-struct Partition {
-    active: Vec<u32>,
-    groups: Vec<(usize, usize)>,
-}
-
-impl Partition {
-    /// Refines the partition by `bins` into `next`. The groups are cut into one share a thread
-    /// (by instances); each share is refined on its own (`shares` keeps the ones after the
-    /// first between calls) and the shares are appended in order, so the partition is the same
-    /// as refining the groups one after the other.
-    fn refine(
-        &self,
-        bins: &[u16],
-        nbins: usize,
-        threads: usize,
-        next: &mut Partition,
-        shares: &mut Vec<Partition>,
-    ) {
-        next.active.clear();
-        next.groups.clear();
-        let cuts = self.cuts(threads);
-        let Some(((g0, g1), rest)) = cuts.split_first() else {
-            return;
-        };
-        if rest.is_empty() {
-            next.append_refined(bins, nbins, &self.active, &self.groups[*g0..*g1]);
-            return;
-        }
-        shares.resize_with(rest.len(), Partition::default);
-        rayon::scope(|sc| {
-            for (share, &(a, b)) in shares.iter_mut().zip(rest) {
-                sc.spawn(move |_| {
-                    share.active.clear();
-                    share.groups.clear();
-                    share.append_refined(bins, nbins, &self.active, &self.groups[a..b]);
-                });
-            }
-            next.append_refined(bins, nbins, &self.active, &self.groups[*g0..*g1]);
-        });
-        for share in shares.iter() {
-            let base = next.active.len();
-            next.active.extend_from_slice(&share.active);
-            next.groups
-                .extend(share.groups.iter().map(|&(start, len)| (base + start, len)));
-        }
-    }
-
-    /// The groups cut into at most `threads` runs of about equal instances, as ranges of group
-    /// indices; one run when the partition is too small to be worth sharing.
-    fn cuts(&self, threads: usize) -> Vec<(usize, usize)> {
-        const MIN_SHARE: usize = 4096;
-        let instances = self.active.len();
-        let k = threads.min(instances / MIN_SHARE).max(1);
-        let mut out = Vec::with_capacity(k);
-        let mut g0 = 0;
-        for i in 1..k {
-            let target = instances * i / k;
-            let mut g1 = g0;
-            while g1 < self.groups.len() && self.groups[g1].0 < target {
-                g1 += 1;
-            }
-            out.push((g0, g1));
-            g0 = g1;
-        }
-        out.push((g0, self.groups.len()));
-        out
-    }
-
-    /// Appends the refinement of `groups` (runs of `active`) by `bins`: the sub-groups of two
-    /// or more, each group by a counting sort over the bins it touches only (a small group
-    /// costs its size, not the number of bins), sub-groups in first-seen bin order.
-    fn append_refined(
-        &mut self,
-        bins: &[u16],
-        nbins: usize,
-        active: &[u32],
-        groups: &[(usize, usize)],
-    ) {
-        let mut counts = vec![0u32; nbins];
-        let mut slots = vec![0u32; nbins];
-        let mut touched: Vec<u16> = Vec::with_capacity(64);
-        for &(start, len) in groups {
-            let run = &active[start..start + len];
-            count_run(bins, run, &mut counts, &mut touched);
-            let mut acc = self.active.len() as u32;
-            for &b in touched.iter() {
-                let c = counts[b as usize];
-                if c > 1 {
-                    self.groups.push((acc as usize, c as usize));
-                    slots[b as usize] = acc;
-                    acc += c;
-                }
-            }
-            self.active.resize(acc as usize, 0);
-            for &k in run {
-                let b = bins[k as usize] as usize;
-                if counts[b] > 1 {
-                    self.active[slots[b] as usize] = k;
-                    slots[b] += 1;
-                }
-            }
-            for &b in touched.iter() {
-                counts[b as usize] = 0;
-            }
-            touched.clear();
-        }
-    }
 }
 
 #[cfg(test)]
@@ -514,10 +309,14 @@ mod tests {
     fn binned(bins: Vec<u32>) -> Binned {
         let bins: Vec<u16> = bins.into_iter().map(|b| b as u16).collect();
         let nbins = bins.iter().copied().max().unwrap() as usize + 1;
+        let mut counts = vec![0u32; nbins];
+        bins.iter().for_each(|&b| counts[b as usize] += 1);
+        let others = Sparse::new(&bins, &counts);
         let mut b = Binned {
             bins,
             nbins,
             entropy_bits: 0.0,
+            others,
         };
         b.entropy_bits = entropy(&b);
         b
@@ -565,34 +364,6 @@ mod tests {
     }
 
     proptest::proptest! {
-        /// The four-lane count must give the same counts in the same first-seen order, so
-        /// that the gains are summed in the same order, bit for bit.
-        #[test]
-        fn lane_counts_equal_the_plain_count(
-            bins in proptest::collection::vec(0u16..12, 1..200),
-            order_seed in 0u64..1000,
-        ) {
-            let n = bins.len();
-            // Any order of the instances, as a group's run is.
-            let mut run: Vec<u32> = (0..n as u32).collect();
-            let mut state = order_seed;
-            for i in (1..n).rev() {
-                let u = crate::identify::uncertainty::uniform(&mut state);
-                run.swap(i, (u * (i + 1) as f64) as usize);
-            }
-            let (mut counts, mut touched) = (vec![0u32; 12], Vec::new());
-            count_run(&bins, &run, &mut counts, &mut touched);
-            let mut t = Tally::new(12);
-            count_run_lanes(&bins, &run, &mut t.lanes, &mut t.seen, &mut t.touched);
-            proptest::prop_assert_eq!(&touched, &t.touched);
-            for ((&c, lanes), &seen) in counts.iter().zip(&t.lanes).zip(&t.seen) {
-                proptest::prop_assert_eq!(c, lanes.iter().sum::<u32>());
-                proptest::prop_assert_eq!(c > 0, seen);
-            }
-        }
-    }
-
-    proptest::proptest! {
         #![proptest_config(proptest::prelude::ProptestConfig::with_cases(24))]
         #[test]
         fn group_refinement_equals_hashing_tuples_from_scratch(seed in 0u64..1000, nbins in 2u32..9) {
@@ -617,11 +388,12 @@ mod tests {
 
     #[test]
     fn the_selection_is_the_same_on_any_thread_count() {
-        // Large enough that the refinement is shared between threads (≥ 4,096 instances a
-        // share); bins clustered like a bank's, so groups of many sizes form.
+        // The rounds of evaluations differ with the number of threads (90 candidates: three a
+        // thread and round at first); bins clustered like a bank's, so groups of many sizes
+        // form.
         let mut state = 7u64;
         let n = 20_000;
-        let cands: Vec<Binned> = (0..12)
+        let cands: Vec<Binned> = (0..90)
             .map(|j| {
                 binned(
                     (0..n)
@@ -639,10 +411,10 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(|| greedy_joint_entropy(&cands, &all, 0.0, 8))
+                .install(|| greedy_joint_entropy(&cands, &all, 0.0, 6))
         };
         let one = on(1);
-        assert_eq!(one.order.len(), 8);
+        assert_eq!(one.order.len(), 6);
         for threads in [2, 3, 5] {
             let s = on(threads);
             assert_eq!(s.order, one.order, "{threads} threads");
