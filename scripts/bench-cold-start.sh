@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Times a new-process `wheelflat identify` to JSON (RPS1+RPS2 and all five sensors) with
 # hyperfine, and the Python reference pipeline (scripts/reference_identify.py) on the same
-# bank and measurement: the figures of docs/performance.md#cold-start-and-watch.
+# bank and measurement: the figures of docs/cold-start.md.
 #
 #   scripts/bench-cold-start.sh [BANK] [PYTHON]
 #

@@ -264,7 +264,7 @@ pub fn greedy_joint_entropy<B: AsRef<[u16]> + Sync>(
             // falls when refreshed). A step re-evaluates about a seventh of the candidates
             // (9 of 60, 21 of 150 on the default bank), and each round is a hand-over between
             // threads: one candidate a thread below 40 candidates, one more each 40 more, up to
-            // four (docs/performance.md#cold-start-and-watch).
+            // four (docs/cold-start.md).
             let mut stale: Vec<usize> = (0..remaining.len()).filter(|&p| !fresh[p]).collect();
             stale.sort_by(|&a, &b| bounds[b].total_cmp(&bounds[a]).then(a.cmp(&b)));
             let per = (1 + remaining.len() / 40).min(4);
