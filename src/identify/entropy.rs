@@ -169,7 +169,7 @@ fn entropy_of_counts(counts: &[u32], n: usize) -> f64 {
 }
 
 /// `c·log2(c)` for c = 0…n.
-fn clog_table(n: usize) -> Vec<f64> {
+pub(crate) fn clog_table(n: usize) -> Vec<f64> {
     (0..=n)
         .map(|c| {
             if c == 0 {

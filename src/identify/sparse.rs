@@ -112,17 +112,7 @@ impl Groups {
         self.count.resize(self.len.len(), 0);
         self.moved_to.resize(self.len.len(), 0);
         for run in point.runs() {
-            for &k in run {
-                let g = self.of[k as usize];
-                if g == NO_GROUP {
-                    continue;
-                }
-                let c = &mut self.count[g as usize];
-                if *c == 0 {
-                    self.met.push(g);
-                }
-                *c += 1;
-            }
+            count_by_group(run, &self.of, &mut self.count, &mut self.met);
             for &g in &self.met {
                 let c = std::mem::take(&mut self.count[g as usize]);
                 self.len[g as usize] -= c;
@@ -141,6 +131,23 @@ impl Groups {
             }
             self.met.clear();
         }
+    }
+}
+
+/// Counts the instances of `run` by their group in `of` into `count` (zero on entry), listing
+/// in `met` each group the first time it is met; instances in no group are skipped.
+#[inline]
+fn count_by_group(run: &[u32], of: &[u32], count: &mut [u32], met: &mut Vec<u32>) {
+    for &k in run {
+        let g = of[k as usize];
+        if g == NO_GROUP {
+            continue;
+        }
+        let c = &mut count[g as usize];
+        if *c == 0 {
+            met.push(g);
+        }
+        *c += 1;
     }
 }
 
@@ -169,17 +176,7 @@ impl GroupTally {
             self.outside.resize(numbers, (0.0, 0));
         }
         for run in sparse.runs() {
-            for &k in run {
-                let g = groups.of[k as usize];
-                if g == NO_GROUP {
-                    continue;
-                }
-                let c = &mut self.count[g as usize];
-                if *c == 0 {
-                    self.in_bin.push(g);
-                }
-                *c += 1;
-            }
+            count_by_group(run, &groups.of, &mut self.count, &mut self.in_bin);
             for &g in &self.in_bin {
                 let g = g as usize;
                 let c = std::mem::take(&mut self.count[g]);
@@ -207,18 +204,7 @@ impl GroupTally {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn clog(n: usize) -> Vec<f64> {
-        (0..=n)
-            .map(|c| {
-                if c == 0 {
-                    0.0
-                } else {
-                    c as f64 * (c as f64).log2()
-                }
-            })
-            .collect()
-    }
+    use crate::identify::entropy::clog_table as clog;
 
     fn sparse(bins: &[u16], nbins: usize) -> Sparse {
         let mut counts = vec![0; nbins];
