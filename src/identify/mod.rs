@@ -441,7 +441,8 @@ impl Identifier {
             ))
         })?;
         // Bins every candidate's predictions at the widths for p into `bins` (one column a
-        // candidate); returns each column's bin counts and entropy.
+        // candidate); returns each column's number of bins, entropy and instances outside its
+        // most populated bin.
         let bin_all = |p: f64, bins: &mut [u16]| -> Vec<entropy::Histogram> {
             use rayon::prelude::*;
             bins.par_chunks_mut(n.max(1))
@@ -453,15 +454,15 @@ impl Identifier {
                 .collect()
         };
         lap("resolution", &mut timings);
-        let counts = bin_all(s.phi, bins);
-        let binned = binned_columns(bins, n, counts);
+        let hists = bin_all(s.phi, bins);
+        let binned = binned_columns(bins, n, hists);
         lap("binning 1", &mut timings);
         let first = greedy_joint_entropy(&binned, &all, alpha, cands.len());
         let m1 = first.order.len().max(1);
         let p = s.phi.powf(1.0 / m1 as f64);
         lap("greedy 1", &mut timings);
-        let counts = bin_all(p, bins);
-        let binned = binned_columns(bins, n, counts);
+        let hists = bin_all(p, bins);
+        let binned = binned_columns(bins, n, hists);
         lap("binning 2", &mut timings);
         let selection = greedy_joint_entropy(&binned, &all, alpha, m1);
         let m_final = selection.order.len().max(1);
