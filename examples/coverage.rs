@@ -1,5 +1,6 @@
 //! Coverage study on a bank (issue #4's acceptance, full-size version):
-//! `cargo run --release --example coverage -- BANK_DIR [CASES] [SEED] [KAPPA]`.
+//! `cargo run --release --example coverage -- BANK_DIR [CASES] [SEED] [KAPPA]`
+//! (`NO_BASELINES=1` leaves the baselines out, `NO_DEPARTURES=1` the departure rule).
 //! Prints one line per case and the summary: how often the truth lies inside the candidate
 //! model set's (L, d) ranges, the median L0 width, the CMS sizes, for the EIP and the baselines.
 use std::path::Path;
@@ -27,6 +28,10 @@ fn main() {
     let mut settings = cal.identification.clone();
     if let Some(k) = args.get(4) {
         settings.bank_resolution = k.parse().expect("KAPPA is a number");
+    }
+    // NO_DEPARTURES=1: sizing without the departure rule (as before issue 36).
+    if std::env::var_os("NO_DEPARTURES").is_some() {
+        settings.falsify_at_departures = false;
     }
     let id = Identifier::new(bank, settings).expect("identifier");
     let baselines = std::env::var_os("NO_BASELINES").is_none();

@@ -200,6 +200,7 @@ fn main() {
                     Flat::fresh_length_mm(depth[1], radius),
                 ],
                 flat_wheels: vec![cal.vehicle.flat_wheel],
+                impact: None,
             }
         });
         let base = out.falsifications[0].ranges.clone();

@@ -154,6 +154,7 @@ fn main() {
                 impact_position_m: span(&params.impact_position_m, 3, pop.impact_position_m),
                 l0_mm: depth_mm.map(|d| Flat::fresh_length_mm(d, radius)),
                 flat_wheels: Vec::new(),
+                impact: None,
             }
         });
         let judged = judge(ranges.as_ref(), &t, true, insp, urg);

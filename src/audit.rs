@@ -37,6 +37,9 @@ pub enum AuditError {
         /// Why.
         message: String,
     },
+    /// No flat was detected: there is no best instance to locate a gap from.
+    #[error("no flat was detected in the measurement: the flat-free model fits it, so there is no model gap to locate")]
+    NoFlatDetected,
 }
 
 /// How one sensor's re-simulated series compares with the stored one.
@@ -133,7 +136,7 @@ impl<'a> Resimulator<'a> {
         stored: &StoredInstance,
         ws: &mut Workspace,
     ) -> Result<Vec<Vec<f32>>, AuditError> {
-        let [l, d, c, xp, _, wheel] = stored.parameters;
+        let [l, d, c, xp, _, wheel, _] = stored.parameters;
         let wheel = WheelPosition::from_code(wheel as u8);
         let flat = Flat::from_mm(l, d, c, xp)
             .map_err(|e| AuditError::Parameters {

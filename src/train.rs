@@ -19,7 +19,7 @@ use crate::bank::Bank;
 use crate::identify::refine::{bank_simulator, refine, RefineSettings};
 use crate::identify::synth::{draw_sources, resolution_step_kn, MARGIN_SAMPLES};
 use crate::identify::{
-    Extras, FlatFreeCheck, Identification, Identifier, IdentifyError, Measurement, Severity,
+    Detection, Extras, Identification, Identifier, IdentifyError, Measurement, Severity,
 };
 use crate::model::calibration::{UncertaintyGroup, UncertaintyKind};
 use crate::model::{CheckedCalibration, Flat, Record, SimError, Simulator, WheelPosition};
@@ -438,9 +438,10 @@ pub struct BogieResult {
     /// The speed of the bank (family member) it was compared with (km/h).
     #[serde(default)]
     pub bank_speed_km_per_h: f64,
-    /// The good-wheel check.
-    pub flat_free: FlatFreeCheck,
-    /// The identification, when the good-wheel check failed.
+    /// The detection step (`identify::detect`), with the detection limit when no flat is
+    /// detected.
+    pub detection: Detection,
+    /// The identification, when a flat was detected.
     pub identification: Option<Identification>,
     /// Milliseconds spent on the bogie.
     pub ms: f64,
@@ -509,8 +510,6 @@ pub fn identify_train(
             ))
         })
         .collect();
-    // A false "flat" on any good bogie of the train is kept below 1 − φ: Šídák over bogies.
-    let phi_bogie = s.phi.powf(1.0 / bogies.len().max(1) as f64);
     let mut m = recording.clone();
     let mut bank_ids: Vec<&str> = Vec::new();
     for (b, bogie) in bogies.iter().enumerate() {
@@ -522,15 +521,31 @@ pub fn identify_train(
         }
         m.laser_trigger_s = Some(bogie.triggers_s[0]);
         m.speed_km_per_h = Some(bogie.speed_km_per_h);
-        let check = identifier.check_flat_free(&m, None, phi_bogie)?;
-        let identification = if check.passes {
-            None
-        } else {
-            Some(identifier.identify(&m, None, Extras::NONE)?)
-        };
+        // Detection first, in the identification itself: the same step as `identify` and
+        // `watch`.
+        let mut id = identifier.identify(&m, None, Extras::NONE)?;
+        let detection = id
+            .detection
+            .take()
+            .expect("identify runs the detection step");
+        let identification = detection.flat_detected.then(|| {
+            id.detection = Some(detection.clone());
+            id
+        });
         for wheel in [WheelPosition::Leading, WheelPosition::Trailing] {
+            let by_rule = identification
+                .as_ref()
+                .and_then(|id| id.wheel_ranges.iter().find(|w| w.wheel == wheel))
+                .map(|w| Severity::of_ranges(&w.ranges, s));
             let (flat, l0, count) = match &identification {
                 None => ("no", None, 0),
+                // Smaller than the population: on a wheel the population puts flats on.
+                Some(id) if id.below_population => {
+                    match id.population.flat_wheels.contains(&wheel) {
+                        true => ("yes", Some([0.0, id.population.l0_mm[0]]), 0),
+                        false => ("no", None, 0),
+                    }
+                }
                 Some(id) if id.cms.is_empty() => ("unknown", None, 0),
                 Some(id) => match id.wheel_ranges.iter().find(|w| w.wheel == wheel) {
                     Some(w) => ("yes", Some(w.ranges.l0_mm), w.cms_count),
@@ -544,7 +559,10 @@ pub fn identify_train(
                 flat: flat.into(),
                 l0_mm: l0,
                 cms_count: count,
-                severity: Severity::of_wheel(flat, l0, s.urgent_l0_mm, s.inspect_l0_mm),
+                severity: match (flat, by_rule) {
+                    ("yes", Some(rule)) => rule,
+                    _ => Severity::of_wheel(flat, l0, s.urgent_l0_mm, s.inspect_l0_mm),
+                },
                 refined_l0_mm: None,
             });
         }
@@ -553,7 +571,7 @@ pub fn identify_train(
             triggers_s: bogie.triggers_s,
             speed_km_per_h: bogie.speed_km_per_h,
             bank_speed_km_per_h: identifier.bank().metadata().calibration.run.speed_km_per_h,
-            flat_free: check,
+            detection,
             identification,
             ms: started.elapsed().as_secs_f64() * 1e3,
         });
@@ -563,7 +581,7 @@ pub fn identify_train(
         bank_id: bank_ids.join(", "),
         wheels: rows,
         bogies: results,
-        severity_rule: Severity::train_rule(phi_bogie, s),
+        severity_rule: Severity::train_rule(s),
         warnings,
         total_ms: clock.elapsed().as_secs_f64() * 1e3,
     })

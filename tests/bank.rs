@@ -445,7 +445,7 @@ fn pyarrow_reads_shape_column_names_and_metadata() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(stdout.contains("rows 20"), "{stdout}");
-    assert!(stdout.contains("columns 507"), "{stdout}");
+    assert!(stdout.contains("columns 508"), "{stdout}");
     assert!(
         stdout.contains("first sample column rps1_t0000"),
         "{stdout}"

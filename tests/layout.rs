@@ -9,6 +9,9 @@ use std::path::{Path, PathBuf};
 use wheelflat::bank::{self, Bank, Codec, GenerateOptions, Outcome, Quiet, StorageFormat};
 use wheelflat::model::CheckedCalibration;
 
+/// The schema index of the first force-sample column (after the instance and parameter columns).
+const FIRST_SAMPLE: usize = 1 + wheelflat::bank::schema::PARAMETER_COLUMNS.len();
+
 fn calibration() -> CheckedCalibration {
     small_calibration(60).check().unwrap()
 }
@@ -66,9 +69,9 @@ fn reading_through_the_layout_gives_what_the_decoder_gives() {
     let last = fast.sample_index(4, 59);
     let cols = [
         last,
-        7,
+        FIRST_SAMPLE,
         fast.sample_index(2, 30),
-        7,
+        FIRST_SAMPLE,
         fast.sample_index(0, 0),
     ];
     assert_eq!(
@@ -108,7 +111,7 @@ fn a_compressed_bank_has_no_layout_and_reads_the_same() {
     assert!(manifest_of(&zv).layout.is_none());
     assert!(!zv.join("layout.bin").exists());
     let (a, b) = (Bank::open(&version).unwrap(), Bank::open(&zv).unwrap());
-    let cols: Vec<usize> = (7..7 + 300).step_by(13).collect();
+    let cols: Vec<usize> = (FIRST_SAMPLE..FIRST_SAMPLE + 300).step_by(13).collect();
     assert_eq!(
         a.read_columns(&cols).unwrap(),
         b.read_columns(&cols).unwrap()

@@ -37,7 +37,7 @@ def main(bank: pathlib.Path) -> int:
     names = table.column_names
     meta = json.loads(pq.ParquetFile(files[0]).metadata.metadata[b"wheelflat.bank"])
     sensors = meta["sensors"]
-    expected = ["instance", "length_mm", "depth_mm", "curvature_mm", "impact_position_m", "l0_mm", "flat_wheel"]
+    expected = ["instance", "length_mm", "depth_mm", "curvature_mm", "impact_position_m", "l0_mm", "flat_wheel", "peak_contact_kn"]
     for s in sensors:
         width = max(4, len(str(s["samples"] - 1)))
         expected += [f"{s['name']}_t{k:0{width}d}" for k in range(s["samples"])]
@@ -51,11 +51,14 @@ def main(bank: pathlib.Path) -> int:
         problems.append("instance column is not 0..N-1")
     if set(table.column("flat_wheel").to_pylist()) - {0.0, 1.0}:
         problems.append("flat_wheel holds values other than 0 (leading) and 1 (trailing)")
-    if str(table.schema.field(names[7]).type) != "float":
+    peaks = table.column("peak_contact_kn").to_pylist()
+    if not all(p is not None and p > 0.0 and p < 1e4 for p in peaks):
+        problems.append("peak_contact_kn holds a value that is not a positive force below 10,000 kN")
+    if str(table.schema.field(names[8]).type) != "float":
         problems.append("sample columns are not float32")
     print(f"rows {table.num_rows}")
     print(f"columns {len(names)}")
-    print(f"first sample column {names[7]}")
+    print(f"first sample column {names[8]}")
     print(f"metadata instances {meta['instances']} format {meta['format_version']} calibration {meta['calibration_sha256'][:12]}")
     print(f"sensors {[s['name'] for s in sensors]}")
     for p in problems:

@@ -18,11 +18,11 @@ import pyarrow.parquet as pq
 from .errors import Failure
 from .neighbours import NEIGHBOURS, cell_weights, neighbour_graph
 
-PARAMETER_COLUMNS = ["length_mm", "depth_mm", "curvature_mm", "impact_position_m", "l0_mm", "flat_wheel"]
+PARAMETER_COLUMNS = ["length_mm", "depth_mm", "curvature_mm", "impact_position_m", "l0_mm", "flat_wheel", "peak_contact_kn"]
 METADATA_KEY = b"wheelflat.bank"
 NEIGHBOURS_MAGIC = b"WFNEIGH2"
 EARLIER_NEIGHBOURS_MAGIC = b"WFNEIGH1"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 
 
 def resolve_version(bank_dir):

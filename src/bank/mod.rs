@@ -15,6 +15,7 @@
 //! - [`verify`]: every file checked against the manifest in full.
 //! - [`lock`]: one writer at a time per bank directory; [`prune`]: old versions removed.
 
+pub mod departures;
 pub mod family;
 pub mod generate;
 pub mod info;

@@ -586,6 +586,7 @@ impl Bank {
                 p.impact_position_m.extend(f64_values(col(4)?));
                 p.l0_mm.extend(f64_values(col(5)?));
                 p.flat_wheel.extend(f64_values(col(6)?).map(|w| w as u8));
+                p.peak_contact_kn.extend(f64_values(col(7)?));
             }
             check_instance_order(&self.dir, &p.instance)?;
             return Ok(p);
@@ -605,10 +606,11 @@ impl Bank {
                     3 => &mut p.curvature_mm,
                     4 => &mut p.impact_position_m,
                     5 => &mut p.l0_mm,
-                    _ => {
+                    6 => {
                         p.flat_wheel.extend(a.values().iter().map(|&w| w as u8));
                         return;
                     }
+                    _ => &mut p.peak_contact_kn,
                 };
                 target.extend_from_slice(a.values());
             }

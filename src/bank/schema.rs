@@ -23,7 +23,7 @@ pub fn shard_file_name(index: usize, count: usize) -> String {
 }
 
 /// Version of the on-disk format (schema, metadata and manifest).
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
 /// Revision of the physics: bump when a code change alters simulated values, so that
 /// existing banks are rebuilt and audits report the drift. Revision 2: the lockstep stepper
 /// (fused multiply–adds, the final accelerations by a second substitution; values within one
@@ -32,14 +32,17 @@ pub const MODEL_REVISION: u32 = 2;
 /// The one key/value metadata key of a shard file; its value is [`BankMetadata`] as JSON.
 pub const METADATA_KEY: &str = "wheelflat.bank";
 /// Parameter columns, in order, before the sample columns (all f64; `flat_wheel` is 0 for
-/// the leading wheel, 1 for the trailing one). Format 2 added `flat_wheel`.
-pub const PARAMETER_COLUMNS: [&str; 6] = [
+/// the leading wheel, 1 for the trailing one; `peak_contact_kn` is the largest wheel–rail
+/// contact force of the flat's wheel over the run, a simulated result rather than a flat
+/// parameter). Format 2 added `flat_wheel`, format 3 `peak_contact_kn`.
+pub const PARAMETER_COLUMNS: [&str; 7] = [
     "length_mm",
     "depth_mm",
     "curvature_mm",
     "impact_position_m",
     "l0_mm",
     "flat_wheel",
+    "peak_contact_kn",
 ];
 
 /// Time axis of one sensor's window.
@@ -125,6 +128,8 @@ pub struct Parameters {
     pub l0_mm: Vec<f64>,
     /// The wheel carrying the flat: 0 leading, 1 trailing.
     pub flat_wheel: Vec<u8>,
+    /// The largest wheel–rail contact force of the flat's wheel over the run (kN).
+    pub peak_contact_kn: Vec<f64>,
 }
 
 /// One shard file in the manifest.
@@ -431,7 +436,7 @@ mod tests {
         let cal = Calibration::default().check().unwrap();
         let axes = sensor_axes(&cal);
         let schema = arrow_schema(&axes);
-        assert_eq!(schema.fields().len(), 1 + 6 + 5 * 1000);
+        assert_eq!(schema.fields().len(), 1 + 7 + 5 * 1000);
         assert_eq!(
             schema.field(sample_column_index(&axes, 1, 137)).name(),
             "rps2_t0137"

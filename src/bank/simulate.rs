@@ -8,7 +8,7 @@
 
 use super::generate::GenerateObserver;
 use super::population::Population;
-use super::schema::{SensorAxis, ShardInfo};
+use super::schema::{SensorAxis, ShardInfo, PARAMETER_COLUMNS};
 use super::writer::InstanceRow;
 use super::BankError;
 use crate::model::{batch_key, CheckedCalibration, Flat, Record, Simulator, LANES};
@@ -24,7 +24,7 @@ pub fn simulate_rows(
     observer: &dyn GenerateObserver,
 ) -> Result<Vec<InstanceRow>, BankError> {
     let instances = info.first_instance..info.first_instance + info.rows;
-    let flats: Vec<(usize, Flat, [f64; 6], f64)> = instances
+    let flats: Vec<(usize, Flat, [f64; PARAMETER_COLUMNS.len()], f64)> = instances
         .map(|i| {
             let s = population.instance(i);
             let flat = s
@@ -41,6 +41,8 @@ pub fn simulate_rows(
                 s.impact_position_m,
                 l0_mm,
                 flat.wheel().unwrap_or(cal.vehicle.flat_wheel).index() as f64,
+                // The peak contact force, filled in once simulated.
+                0.0,
             ];
             let key = batch_key(sim, Some(&flat));
             Ok((i, flat, parameters, key))
@@ -60,7 +62,7 @@ pub fn simulate_rows(
                 let (results, _) = sim.run_batch(&members, Record::default(), ws);
                 let mut rows = Vec::with_capacity(batch.len());
                 for (&k, resp) in batch.iter().zip(results) {
-                    let (i, _, parameters, _) = &flats[k];
+                    let (i, flat, parameters, _) = &flats[k];
                     let resp = resp.map_err(|e| BankError::Instance {
                         instance: *i,
                         message: e.to_string(),
@@ -73,12 +75,16 @@ pub fn simulate_rows(
                                 .map(|v| (v / 1e3) as f32),
                         );
                     }
+                    let mut parameters = *parameters;
+                    let wheel = flat.wheel().unwrap_or(cal.vehicle.flat_wheel).index();
+                    parameters[PARAMETER_COLUMNS.len() - 1] =
+                        resp.peak_contact_force_n[wheel] / 1e3;
                     observer.instance_done();
                     rows.push((
                         k,
                         InstanceRow {
                             instance: *i as u32,
-                            parameters: *parameters,
+                            parameters,
                             forces_kn,
                         },
                     ));

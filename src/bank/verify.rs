@@ -18,7 +18,7 @@ pub struct VerifyProblem {
 
 /// Checks every file of a bank against its manifest (presence, size, SHA-256, readable footer
 /// naming this bank and its place in it; the neighbour graph; the column layout against the
-/// footers), the manifest against `CURRENT` and against itself (format, instance count, shard
+/// footers; the departures table when one is stored), the manifest against `CURRENT` and against itself (format, instance count, shard
 /// names and ranges). Returns the problems found (empty: the bank is intact).
 pub fn verify(dir: &Path) -> Result<(Manifest, Vec<VerifyProblem>), BankError> {
     let current = resolve(dir)?;
@@ -169,6 +169,22 @@ pub fn verify(dir: &Path) -> Result<(Manifest, Vec<VerifyProblem>), BankError> {
             problems.push(VerifyProblem {
                 path: version.join(&aux.name),
                 message: e.to_string(),
+            });
+        }
+    }
+    // The departures table is a cache, not in the manifest; when present it must still be this
+    // bank's and whole (identification would recompute a damaged one, but a damaged file is
+    // worth knowing about).
+    let departures = version.join(super::departures::DEPARTURES_FILE);
+    if let Ok(bytes) = std::fs::read(&departures) {
+        if let Err(message) =
+            super::departures::check(&bytes, &manifest.bank_id, manifest.instances)
+        {
+            problems.push(VerifyProblem {
+                path: departures,
+                message: format!(
+                    "the departures table (a cache; delete it to have it rebuilt): {message}"
+                ),
             });
         }
     }

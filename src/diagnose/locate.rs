@@ -76,7 +76,11 @@ pub fn locate(identifier: &Identifier, id: &Identification) -> Result<Located, A
     let bank = identifier.bank();
     let meta = bank.metadata();
     let cal = &meta.calibration;
-    let best = id.residual_minimisation.instance;
+    let best = id
+        .residual_minimisation
+        .as_ref()
+        .ok_or(AuditError::NoFlatDetected)?
+        .instance;
     let stored = bank.read_instance(best as usize)?;
     // The instance stands for its cell: its thresholds widen by κ × the largest difference to
     // its neighbours' predictions, sample by sample, as in falsification.

@@ -84,8 +84,11 @@ impl Stage {
                 .first()
                 .and_then(|f| f.ranges.as_ref())
                 .map(|r| r.l0_mm),
-            best_instance: id.residual_minimisation.instance,
-            best_l0_mm: id.residual_minimisation.l0_mm,
+            best_instance: id.residual_minimisation.as_ref().map_or(0, |r| r.instance),
+            best_l0_mm: id
+                .residual_minimisation
+                .as_ref()
+                .map_or(f64::NAN, |r| r.l0_mm),
             rms_residual_kn: l.rms_residual_kn,
             samples_outside: l.samples_outside,
             samples: l.sensors.iter().map(|s| s.samples).sum(),

@@ -288,6 +288,7 @@ pub fn bounds_to_ranges(
         impact_position_m: b[3],
         l0_mm: [l0(depth_mm[0]), l0(depth_mm[1])],
         flat_wheels: wheels,
+        impact: None,
     }
 }
 
@@ -462,6 +463,7 @@ mod tests {
             impact_position_m: xs.iter().map(|x| x[3]).collect(),
             l0_mm: vec![0.0; xs.len()],
             flat_wheel: vec![1; xs.len()],
+            peak_contact_kn: vec![0.0; xs.len()],
         }
     }
 

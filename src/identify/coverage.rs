@@ -113,7 +113,10 @@ pub fn run(
                     .find(|f| f.method.starts_with("equidistant")),
             ),
             random_mean: id.random_subsets.as_ref().map_or(f64::NAN, |r| r.mean),
-            rm_l0_mm: id.residual_minimisation.l0_mm,
+            rm_l0_mm: id
+                .residual_minimisation
+                .as_ref()
+                .map_or(f64::NAN, |r| r.l0_mm),
             points: id.eip.len(),
         });
     }

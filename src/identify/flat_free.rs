@@ -1,54 +1,175 @@
-//! The good-wheel check of a measurement against the bank's flat-free prediction (train).
+//! The good-wheel side of identification: the detection step run before sizing
+//! ([`super::detect`]), its detection limit from the bank's departures table, and the answer of
+//! a pass in which no flat is detected. `identify`, `watch` and `train` all come through here.
 
-use super::result::FlatFreeCheck;
-use super::{Identifier, IdentifyError, Measurement, Prepared};
+use super::detect::{self, Detection, DetectionLimit, TableBounds};
+use super::ranges::population_ranges;
+use super::result::{Alignment, MeasuredSeries, SpeedUse};
+use super::{Identification, Identifier, IdentifyError, Measurement};
+use crate::bank::departures::{self, Departures};
+use std::sync::Arc;
 
 impl Identifier {
-    /// The good-wheel check ([`FlatFreeCheck`]): the bank's flat-free prediction (computed,
-    /// not sampled: no cell widening) against the measurement at every PIP, with thresholds
-    /// for the target probability `phi` over that many points (Šídák). The relative sources
-    /// scale with the larger of prediction and measurement (model errors are fractions of the
-    /// predicted force, measurement errors of the measured one). `phi` = the settings' φ
-    /// judges one measurement alone; a larger one spreads a family-wise φ over several (a
-    /// whole train). Milliseconds: no bank column is read.
-    pub fn check_flat_free(
+    /// The detection step over a pass's series on the bank's windows (`axes[i]` is series i's
+    /// bank axis): milliseconds, no bank column is read.
+    pub(super) fn detect(&self, axes: &[usize], series: &[MeasuredSeries]) -> Detection {
+        let meta = self.bank.metadata();
+        let templates: Vec<&[f32]> = axes
+            .iter()
+            .map(|&a| meta.flat_free_kn[a].as_slice())
+            .collect();
+        detect::detect(series, &templates, TableBounds::of(&self.settings))
+    }
+
+    /// The bank's departures table (read from its file, or computed and stored on first use;
+    /// kept for the next pass).
+    pub fn departures(&self) -> Result<Arc<Departures>, IdentifyError> {
+        let mut slot = self.departures.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(d) = slot.as_ref() {
+            return Ok(Arc::clone(d));
+        }
+        let d = Arc::new(departures::load_or_compute(&self.bank)?);
+        *slot = Some(Arc::clone(&d));
+        Ok(d)
+    }
+
+    /// The detection limit of a pass through the bank axes `axes` ([`DetectionLimit`]).
+    pub fn detection_limit(&self, axes: &[usize]) -> Result<DetectionLimit, IdentifyError> {
+        let d = self.departures()?;
+        Ok(detect::limit(
+            &d,
+            &self.params.l0_mm,
+            axes,
+            &TableBounds::of(&self.settings),
+        ))
+    }
+
+    /// Sizing's departure rule ([`detect::falsified_by_departure`]) over the candidate model
+    /// set `cms` of a pass whose detection is `detection` (series on the bank axes `axes`).
+    /// Returns the survivors, and whether the pass is below the population: every instance of
+    /// the bank predicts a larger departure than measured (only looked at when none survives).
+    pub(super) fn departure_rule(
+        &self,
+        cms: Vec<u32>,
+        axes: &[usize],
+        detection: &Detection,
+    ) -> Result<(Vec<u32>, bool), IdentifyError> {
+        let s = &self.settings;
+        if !s.falsify_at_departures {
+            return Ok((cms, false));
+        }
+        let d = self.departures()?;
+        let sensors: Vec<(usize, &detect::SensorTest)> =
+            axes.iter().copied().zip(&detection.sensors).collect();
+        let b = TableBounds::of(s);
+        let resolution = self.resolution();
+        let ruled_out = |i: usize| {
+            let cell = resolution.map_or(&[][..], |r| r.cells.neighbours(i));
+            detect::falsified_by_departure(
+                &d,
+                i,
+                cell,
+                &sensors,
+                &b,
+                s.departure_model_form_fraction,
+            )
+        };
+        let kept: Vec<u32> = cms
+            .into_iter()
+            .filter(|&i| !ruled_out(i as usize))
+            .collect();
+        let below = kept.is_empty() && {
+            use rayon::prelude::*;
+            (0..self.bank.instances()).into_par_iter().all(ruled_out)
+        };
+        Ok((kept, below))
+    }
+
+    /// The pass's speed and the bank's it was compared with.
+    pub(super) fn speed_use(&self, m: &Measurement) -> SpeedUse {
+        SpeedUse {
+            pass_km_per_h: m.speed_km_per_h,
+            bank_km_per_h: self.bank.metadata().calibration.run.speed_km_per_h,
+        }
+    }
+
+    /// The answer for a pass in which no flat is detected: no sizing, the detection limit
+    /// instead of a size, severity none.
+    pub(super) fn no_flat(
         &self,
         m: &Measurement,
-        sensors: Option<&[String]>,
-        phi: f64,
-    ) -> Result<FlatFreeCheck, IdentifyError> {
-        let Prepared {
-            used,
+        alignment: Alignment,
+        series: Vec<MeasuredSeries>,
+        mut detection: Detection,
+        axes: &[usize],
+        mut timings_ms: Vec<(String, f64)>,
+    ) -> Result<Identification, IdentifyError> {
+        let started = std::time::Instant::now();
+        let limit = self.detection_limit(axes)?;
+        let s = &self.settings;
+        let meta = self.bank.metadata();
+        let worst = detection.worst();
+        let closest = worst.map_or(String::new(), |w| {
+            format!(
+                " (closest: {:.2} kN inside, {} at {:.4} s)",
+                -w.excess_kn, w.sensor, w.at_time_s
+            )
+        });
+        let limit_words = match (limit.l0_mm, limit.at_population_floor) {
+            (Some(l0), true) => format!(
+                "every flat of the bank's population (L0 from {l0:.0} mm) would have been detected at this speed and load; smaller ones may be too"
+            ),
+            (Some(l0), false) => format!(
+                "flats with L0 of {l0:.0} mm and more would have been detected at this speed and load ({:.1} % of the bank's population); smaller ones may pass unseen",
+                100.0 * limit.share_detected
+            ),
+            (None, _) => "no size of flat in the bank's population is surely detected by these sensors at this speed (its strikes fall where they cannot see them): this pass says nothing about a flat".into(),
+        };
+        let summary = format!(
+            "No flat detected: every one of the {} samples of {} sensor(s) lies within the good wheel's bounds{closest}. Detection limit: {limit_words}.",
+            detection.samples,
+            detection.sensors.len(),
+        );
+        let hint = if limit.l0_mm.is_some() {
+            "No action: no flat detected at this pass.".to_string()
+        } else {
+            "No verdict: the sensors used cannot see this wheel's flats; do not count this pass as a good wheel.".to_string()
+        };
+        detection.limit = Some(limit);
+        timings_ms.push((
+            "detection limit".into(),
+            started.elapsed().as_secs_f64() * 1e3,
+        ));
+        Ok(Identification {
+            measurement: m.path.display().to_string(),
+            speed: self.speed_use(m),
+            bank_id: meta.bank_id.clone(),
+            bank_instances: self.bank.instances(),
+            population: population_ranges(&meta.calibration),
+            alignment,
             series,
-            cands,
-            ..
-        } = self.prepare(m, sensors)?;
-        let template = &self.bank.metadata().flat_free_kn;
-        let p = phi.powf(1.0 / cands.len().max(1) as f64);
-        let mut outside = 0;
-        let mut worst: Option<(String, f64, f64, f64, f64)> = None;
-        for &(si, k, _) in &cands {
-            let ser = &series[si];
-            let y = ser.values_kn[k];
-            let g = template[used[si].1][k] as f64;
-            let base = if g.abs() > y.abs() { g } else { y };
-            let (lo, hi) = self.uncertainty.thresholds(base, p);
-            let r = g - y;
-            let beyond = (r - hi).max(lo - r);
-            if beyond > 0.0 {
-                outside += 1;
-            }
-            if worst.as_ref().is_none_or(|w| beyond > w.4) {
-                let t = ser.t0_s + k as f64 / ser.sample_rate_hz;
-                worst = Some((ser.sensor.clone(), t, y, g, beyond));
-            }
-        }
-        Ok(FlatFreeCheck {
-            points: cands.len(),
-            per_point_probability: p,
-            outside,
-            worst,
-            passes: outside == 0,
+            pip_distance: s.pip_distance.clone(),
+            pips_per_series: s.pips_per_series,
+            candidates: Vec::new(),
+            eip: Vec::new(),
+            eip_joint_entropy_bits: Vec::new(),
+            envelope: Vec::new(),
+            alpha_bits: 0.0,
+            entropy_curves: Vec::new(),
+            phi: s.phi,
+            per_point_probability: 1.0,
+            cms: Vec::new(),
+            falsifications: Vec::new(),
+            wheel_ranges: Vec::new(),
+            residual_minimisation: None,
+            random_subsets: None,
+            model_class_refuted: false,
+            below_population: false,
+            detection: Some(detection),
+            summary,
+            maintenance_hint: hint,
+            timings_ms,
+            refinement: None,
         })
     }
 }

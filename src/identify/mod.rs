@@ -9,6 +9,7 @@ pub mod aligned;
 pub mod buffer;
 pub mod cells;
 pub mod coverage;
+pub mod detect;
 pub mod entropy;
 pub mod envelope;
 pub mod falsify;
@@ -32,16 +33,17 @@ use crate::bank::{Bank, BankError, Parameters};
 use crate::model::calibration::IdentificationParams;
 use crate::model::WheelPosition;
 use cells::Cells;
+pub use detect::{Detection, DetectionLimit};
 use entropy::{bin_into, binned_columns, greedy_joint_entropy};
 use falsify::{falsify, random_subset_counts, residual_minimisation, Point, Resolution};
 use pip::{perceptually_important_points, PipDistance};
 use ranges::{instance, population_ranges, ranges_of};
+pub use result::WheelRanges;
 use result::{
     Alignment, CandidatePoint, EntropyCurve, Falsification, InstanceParams, MeasuredSeries,
-    ParamRanges, RandomSubsets, SpeedUse,
+    ParamRanges, RandomSubsets,
 };
-pub use result::{FlatFreeCheck, WheelRanges};
-use severity::summarise;
+use severity::{below_population_words, summarise};
 use std::path::PathBuf;
 use std::sync::Mutex;
 use std::time::Instant;
@@ -127,6 +129,8 @@ pub struct Identifier {
     uncertainty: CombinedUncertainty,
     buffers: Mutex<buffer::HugeBuffer>,
     bin_buffers: Mutex<buffer::HugeBuffer>,
+    /// The bank's departures table, loaded when a pass first needs its detection limit.
+    departures: Mutex<Option<std::sync::Arc<crate::bank::departures::Departures>>>,
 }
 
 impl Identifier {
@@ -173,6 +177,7 @@ impl Identifier {
             uncertainty,
             buffers: Mutex::new(buffer::HugeBuffer::default()),
             bin_buffers: Mutex::new(buffer::HugeBuffer::default()),
+            departures: Mutex::new(None),
         }
     }
 
@@ -232,14 +237,16 @@ impl Identifier {
             &self.params,
             self.resolution().map(|r| r.cells),
             &cal.population,
-            cal.vehicle.wheel_radius_m,
+            (
+                cal.vehicle.wheel_radius_m,
+                cal.vehicle.static_wheel_load_n() / 1e3,
+            ),
             members,
         )
     }
 
-    /// The per-measurement preparation shared by [`Identifier::identify`] and
-    /// [`Identifier::check_flat_free`]: sensors, alignment, the series on the bank's windows,
-    /// and their PIPs.
+    /// The per-measurement preparation of [`Identifier::identify`]: sensors, alignment, the
+    /// series on the bank's windows, and their PIPs.
     fn prepare(
         &self,
         m: &Measurement,
@@ -356,7 +363,9 @@ impl Identifier {
         })
     }
 
-    /// Identifies the flat behind one measurement. `sensors` restricts the sensors used.
+    /// Identifies the flat behind one measurement: detection first ([`detect`]); when no flat
+    /// is detected, that answer with the pass's detection limit and no sizing; else the flat's
+    /// size by falsification. `sensors` restricts the sensors used.
     pub fn identify(
         &self,
         m: &Measurement,
@@ -375,6 +384,12 @@ impl Identifier {
             series,
             cands,
         } = self.prepare(m, sensors)?;
+        let axes: Vec<usize> = used.iter().map(|&(_, bi)| bi).collect();
+        let detection = self.detect(&axes, &series);
+        lap("detection", &mut timings);
+        if !detection.flat_detected {
+            return self.no_flat(m, alignment, series, detection, &axes, timings);
+        }
         let meta = self.bank.metadata();
         let cal = &meta.calibration;
         let s = &self.settings;
@@ -507,6 +522,8 @@ impl Identifier {
         ));
         let cms_idx = falsify(&method_points, self.resolution());
         lap("falsify", &mut timings);
+        let (cms_idx, below_population) = self.departure_rule(cms_idx, &axes, &detection)?;
+        lap("departures", &mut timings);
 
         let candidates: Vec<CandidatePoint> = cands
             .iter()
@@ -543,11 +560,16 @@ impl Identifier {
                 })
             })
             .collect();
+        let departures = if s.falsify_at_departures {
+            " + departures"
+        } else {
+            ""
+        };
         let mut falsifications = vec![Falsification {
             method: if env_reported.is_empty() {
-                "EIP (joint entropy)".into()
+                format!("EIP (joint entropy){departures}")
             } else {
-                "EIP (joint entropy) + envelope".into()
+                format!("EIP (joint entropy) + envelope{departures}")
             },
             points: method_points.len(),
             cms_count: cms.len(),
@@ -663,14 +685,15 @@ impl Identifier {
         }
 
         let population = population_ranges(cal);
-        let refuted = cms.is_empty();
-        let (summary, hint) = summarise(&cms_ranges, cms.len(), n, method_points.len(), s);
+        let refuted = cms.is_empty() && !below_population;
+        let (summary, hint) = if below_population {
+            below_population_words(&population, s)
+        } else {
+            summarise(&cms_ranges, cms.len(), n, method_points.len(), s)
+        };
         Ok(Identification {
             measurement: m.path.display().to_string(),
-            speed: SpeedUse {
-                pass_km_per_h: m.speed_km_per_h,
-                bank_km_per_h: meta.calibration.run.speed_km_per_h,
-            },
+            speed: self.speed_use(m),
             bank_id: meta.bank_id.clone(),
             bank_instances: n,
             population,
@@ -689,9 +712,11 @@ impl Identifier {
             cms,
             falsifications,
             wheel_ranges,
-            residual_minimisation: instance(&self.params, rm),
+            residual_minimisation: Some(instance(&self.params, rm)),
             random_subsets,
             model_class_refuted: refuted,
+            below_population,
+            detection: Some(detection),
             summary,
             maintenance_hint: hint,
             timings_ms: timings,

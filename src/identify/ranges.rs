@@ -3,7 +3,7 @@
 //! bounds through [`Flat::fresh_length_mm`].
 
 use super::cells::Cells;
-use super::result::{InstanceParams, ParamRanges};
+use super::result::{ImpactRange, InstanceParams, ParamRanges};
 use crate::bank::Parameters;
 use crate::model::calibration::PopulationParams;
 use crate::model::{Calibration, Flat, WheelPosition};
@@ -14,7 +14,7 @@ pub(crate) fn ranges_of(
     params: &Parameters,
     cells: Option<&Cells>,
     population: &PopulationParams,
-    wheel_radius_m: f64,
+    (wheel_radius_m, static_wheel_load_kn): (f64, f64),
     members: impl Iterator<Item = usize> + Clone,
 ) -> Option<ParamRanges> {
     members.clone().next()?;
@@ -33,7 +33,34 @@ pub(crate) fn ranges_of(
         curvature_mm: r(&params.curvature_mm, 2, population.curvature_mm),
         impact_position_m: r(&params.impact_position_m, 3, population.impact_position_m),
         l0_mm: [l0(depth_mm[0]), l0(depth_mm[1])],
-        flat_wheels: wheels_of(members.map(|k| params.flat_wheel[k])),
+        flat_wheels: wheels_of(members.clone().map(|k| params.flat_wheel[k])),
+        impact: impact_of(params, cells, static_wheel_load_kn, members),
+    })
+}
+
+/// The impact range of a set of instances: over the instances and, with `cells`, the
+/// neighbours their cells reach (the flats between instances make impacts between theirs).
+/// `None` for a bank without stored peak forces.
+fn impact_of(
+    params: &Parameters,
+    cells: Option<&Cells>,
+    static_wheel_load_kn: f64,
+    members: impl Iterator<Item = usize>,
+) -> Option<ImpactRange> {
+    let peak = &params.peak_contact_kn;
+    if peak.len() != params.length_mm.len() {
+        return None;
+    }
+    let mut range = [f64::INFINITY, f64::NEG_INFINITY];
+    for k in members {
+        let cell = cells.map_or(&[][..], |c| c.neighbours(k));
+        for j in std::iter::once(k).chain(cell.iter().map(|&j| j as usize)) {
+            range = [range[0].min(peak[j]), range[1].max(peak[j])];
+        }
+    }
+    range[0].is_finite().then(|| ImpactRange {
+        peak_contact_kn: range,
+        dynamic_ratio: range.map(|f| f / static_wheel_load_kn),
     })
 }
 
@@ -77,5 +104,6 @@ pub(crate) fn population_ranges(cal: &Calibration) -> ParamRanges {
             .flat_wheels
             .clone()
             .unwrap_or_else(|| vec![cal.vehicle.flat_wheel]),
+        impact: None,
     }
 }

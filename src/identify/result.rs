@@ -64,23 +64,6 @@ pub struct WheelRanges {
     pub ranges: ParamRanges,
 }
 
-/// The good-wheel check: the bank's flat-free prediction against the measurement at every
-/// PIP. Passing means no flat can be told from the measurement.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct FlatFreeCheck {
-    /// Points compared (all PIPs).
-    pub points: usize,
-    /// Per-point probability `φ^(1/points)` (Šídák).
-    pub per_point_probability: f64,
-    /// Points where the flat-free prediction lies outside the thresholds.
-    pub outside: usize,
-    /// The point farthest outside (or closest to the edge when none is outside): sensor, bank
-    /// time (s), measured (kN), flat-free prediction (kN), how far outside (kN, ≤ 0 inside).
-    pub worst: Option<(String, f64, f64, f64, f64)>,
-    /// No point outside: the measurement is consistent with a good wheel.
-    pub passes: bool,
-}
-
 /// Joint entropy as points are added greedily, for one set of sensors (paper Fig. 16).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct EntropyCurve {
@@ -124,6 +107,21 @@ pub struct ParamRanges {
     pub l0_mm: [f64; 2],
     /// The wheels that carry the flat in the set.
     pub flat_wheels: Vec<WheelPosition>,
+    /// The impact the set's flats make at the bank's speed and load (from the bank's stored
+    /// peak contact forces; absent where not known, e.g. the population's bounds).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub impact: Option<ImpactRange>,
+}
+
+/// The range of the impact a set of flats makes: the largest wheel–rail contact force of the
+/// flat's wheel over a pass, and that over the static wheel load (the dynamic ratio wayside
+/// impact detectors report).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ImpactRange {
+    /// Peak wheel–rail force (kN).
+    pub peak_contact_kn: [f64; 2],
+    /// Peak over the static wheel load.
+    pub dynamic_ratio: [f64; 2],
 }
 
 /// Result of falsification with one set of comparison points.
@@ -216,11 +214,19 @@ pub struct Identification {
     #[serde(default)]
     pub wheel_ranges: Vec<WheelRanges>,
     /// Residual minimisation without uncertainties over the EIP (paper §4.4).
-    pub residual_minimisation: InstanceParams,
+    #[serde(default)]
+    pub residual_minimisation: Option<InstanceParams>,
     /// Random subsets of the PIPs (paper §4.5).
     pub random_subsets: Option<RandomSubsets>,
     /// True when every instance was falsified: the model class itself is refuted.
     pub model_class_refuted: bool,
+    /// A flat is detected, but every instance of the bank predicts a larger departure from the
+    /// good wheel than measured: the flat is smaller than the population's.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub below_population: bool,
+    /// The detection step run before sizing (absent in results written before it existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub detection: Option<super::detect::Detection>,
     /// One-paragraph verdict for people.
     pub summary: String,
     /// Maintenance hint (severity rule stated).

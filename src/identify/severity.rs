@@ -8,7 +8,7 @@
 //! is monitored. A good wheel is `none`; a wheel whose model class is refuted is inspected.
 
 use super::result::ParamRanges;
-use crate::model::calibration::IdentificationParams;
+use crate::model::calibration::{IdentificationParams, MaintenanceRule};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -37,6 +37,38 @@ impl Severity {
             Severity::Inspect
         } else {
             Severity::Monitor
+        }
+    }
+
+    /// The rule on the upper dynamic ratio: `urgent` from `urgent_ratio`, `inspect` from
+    /// `inspect_ratio`, else `monitor`.
+    pub fn of_upper_ratio(upper: f64, urgent_ratio: f64, inspect_ratio: f64) -> Severity {
+        Severity::of_upper_l0(upper, urgent_ratio, inspect_ratio)
+    }
+
+    /// The settings' rule ([`MaintenanceRule`]) on a set's ranges: the impact rule where the
+    /// ranges carry an impact, else the L0 rule.
+    pub fn of_ranges(r: &ParamRanges, s: &IdentificationParams) -> Severity {
+        match (s.maintenance_rule, r.impact) {
+            (MaintenanceRule::Impact, Some(i)) => Severity::of_upper_ratio(
+                i.dynamic_ratio[1],
+                s.urgent_dynamic_ratio,
+                s.inspect_dynamic_ratio,
+            ),
+            _ => Severity::of_upper_l0(r.l0_mm[1], s.urgent_l0_mm, s.inspect_l0_mm),
+        }
+    }
+
+    /// The maintenance hint of a set's ranges under the settings' rule, with the rule stated.
+    pub fn hint_of_ranges(r: &ParamRanges, s: &IdentificationParams) -> String {
+        let (MaintenanceRule::Impact, Some(i)) = (s.maintenance_rule, r.impact) else {
+            return Severity::maintenance_hint(Some(r.l0_mm[1]), s);
+        };
+        let upper = i.dynamic_ratio[1];
+        match Severity::of_ranges(r, s) {
+            Severity::Urgent => format!("Remove the wheelset from service within 24 hours: the largest dynamic ratio that fits the measurement ({upper:.2}) reaches the urgent limit of {:.2} (rule: upper dynamic-ratio bound ≥ urgent_dynamic_ratio).", s.urgent_dynamic_ratio),
+            Severity::Inspect => format!("Inspect the wheel at the next opportunity: the largest dynamic ratio that fits ({upper:.2}) is between the inspection limit {:.2} and the urgent limit {:.2}.", s.inspect_dynamic_ratio, s.urgent_dynamic_ratio),
+            Severity::Monitor | Severity::None => format!("Monitor: the largest dynamic ratio that fits ({upper:.2}) is below the inspection limit of {:.2}.", s.inspect_dynamic_ratio),
         }
     }
 
@@ -80,11 +112,11 @@ impl Severity {
         }
     }
 
-    /// The train table's rule in words, for a good-wheel check at `phi_bogie` per bogie.
-    pub fn train_rule(phi_bogie: f64, s: &IdentificationParams) -> String {
+    /// The train table's rule in words.
+    pub fn train_rule(s: &IdentificationParams) -> String {
         format!(
-        "none: the good-wheel check passes at every PIP at φ^(1/bogies) = {:.4} (no flat can be told from the measurement); otherwise by the upper L0 bound of the wheel's candidate model set: urgent (remove within 24 h) from {} mm, inspect from {} mm, monitor below; inspect when every instance is falsified (the model is refuted)",
-        phi_bogie, s.urgent_l0_mm, s.inspect_l0_mm
+        "none: no flat detected (every sample within the good wheel's bounds: the table's absolute errors plus {} kN and {} % of the force, after each sensor's gain); otherwise by the upper L0 bound of the wheel's candidate model set: urgent (remove within 24 h) from {} mm, inspect from {} mm, monitor below; inspect when every instance is falsified (the model is refuted)",
+        s.detection_allowance_kn, 100.0 * s.detection_allowance_fraction, s.urgent_l0_mm, s.inspect_l0_mm
     )
     }
 }
@@ -100,6 +132,21 @@ impl PartialEq<&str> for Severity {
     fn eq(&self, other: &&str) -> bool {
         self.as_str() == *other
     }
+}
+
+/// The verdict and hint of a detected flat smaller than the population's: its L0 is below the
+/// population's smallest, which the L0 rule then reads as the upper bound.
+pub(crate) fn below_population_words(
+    population: &ParamRanges,
+    s: &IdentificationParams,
+) -> (String, String) {
+    let floor = population.l0_mm[0];
+    (
+        format!(
+            "A flat is detected, smaller than every flat of the bank's population: each instance predicts a larger departure from the good wheel than measured. Its L0 lies below the population's smallest, {floor:.0} mm (sizes below that are not in the bank)."
+        ),
+        Severity::maintenance_hint(Some(floor), s),
+    )
 }
 
 /// The human verdict and the maintenance hint (rule stated in the text).
@@ -119,11 +166,17 @@ pub(crate) fn summarise(
             Severity::maintenance_hint(None, s),
         ),
         Some(r) => {
+            let impact = r.impact.map_or(String::new(), |i| {
+                format!(
+                    " Peak wheel–rail force in [{:.0}, {:.0}] kN at this speed and load (dynamic ratio [{:.2}, {:.2}]).",
+                    i.peak_contact_kn[0], i.peak_contact_kn[1], i.dynamic_ratio[0], i.dynamic_ratio[1]
+                )
+            });
             let summary = format!(
-                "{count} of {n} model instances survive {m} comparison points (φ = {}): flat length L in [{:.0}, {:.0}] mm, depth d in [{:.2}, {:.2}] mm, fresh-flat length L0 in [{:.0}, {:.0}] mm, impact at X_p in [{:.2}, {:.2}] m.",
+                "{count} of {n} model instances survive {m} comparison points (φ = {}): flat length L in [{:.0}, {:.0}] mm, depth d in [{:.2}, {:.2}] mm, fresh-flat length L0 in [{:.0}, {:.0}] mm, impact at X_p in [{:.2}, {:.2}] m.{impact}",
                 s.phi, r.length_mm[0], r.length_mm[1], r.depth_mm[0], r.depth_mm[1], r.l0_mm[0], r.l0_mm[1], r.impact_position_m[0], r.impact_position_m[1]
             );
-            let hint = Severity::maintenance_hint(Some(r.l0_mm[1]), s);
+            let hint = Severity::hint_of_ranges(r, s);
             (summary, hint)
         }
     }

@@ -28,6 +28,10 @@ pub struct Truth {
     pub impact_position_m: f64,
     /// L0 = sqrt(8·d·R_w) (mm).
     pub l0_mm: f64,
+    /// The largest wheel–rail contact force of the flat's wheel over the run, noise-free (kN;
+    /// of either wheel for a good wheel).
+    #[serde(default)]
+    pub peak_contact_kn: f64,
     /// Seed of the perturbation.
     pub seed: u64,
     /// Per sensor: the systematic model error E_model drawn (fraction).
@@ -120,6 +124,18 @@ pub fn synthesize_with_noise(
     with_trigger: bool,
     noise: FieldNoise,
 ) -> Result<Synthetic, SimError> {
+    synthesize_pass(cal, Some(flat), seed, with_trigger, noise)
+}
+
+/// [`synthesize_with_noise`] of a flat or, with `None`, of a good wheel (its truth then gives
+/// a flat of size zero: L, d, c and L0 all 0).
+pub fn synthesize_pass(
+    cal: &CheckedCalibration,
+    flat: Option<&Flat>,
+    seed: u64,
+    with_trigger: bool,
+    noise: FieldNoise,
+) -> Result<Synthetic, SimError> {
     if !(noise.scale >= 0.0 && noise.scale.is_finite() && (0.0..1.0).contains(&noise.ar1)) {
         return Err(SimError::Setup(format!(
             "field noise scale {} (≥ 0) and AR(1) correlation {} (0 ≤ ρ < 1) out of range",
@@ -133,7 +149,7 @@ pub fn synthesize_with_noise(
     wide.output.window_samples += 2 * MARGIN_SAMPLES;
     let wide = wide.check().map_err(|e| SimError::Setup(e.to_string()))?;
     let sim = Simulator::new(&wide)?;
-    let resp = sim.run(Some(flat), Record::default())?;
+    let resp = sim.run(flat, Record::default())?;
     let id = &cal.identification;
     let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1CE;
     let mut draw =
@@ -196,12 +212,19 @@ pub fn synthesize_with_noise(
         }
         csv.push('\n');
     }
+    let size = |f: fn(&Flat) -> f64| flat.map_or(0.0, |x| f(x) * 1e3);
     let truth = Truth {
-        length_mm: flat.length_m() * 1e3,
-        depth_mm: flat.depth_m() * 1e3,
-        curvature_mm: flat.curvature_m() * 1e3,
-        impact_position_m: flat.impact_position_m(),
-        l0_mm: flat.fresh_length_m(cal.vehicle.wheel_radius_m) * 1e3,
+        length_mm: size(Flat::length_m),
+        depth_mm: size(Flat::depth_m),
+        curvature_mm: size(Flat::curvature_m),
+        impact_position_m: flat.map_or(0.0, Flat::impact_position_m),
+        l0_mm: flat.map_or(0.0, |x| x.fresh_length_m(cal.vehicle.wheel_radius_m) * 1e3),
+        peak_contact_kn: match flat {
+            Some(f) => {
+                resp.peak_contact_force_n[f.wheel().unwrap_or(cal.vehicle.flat_wheel).index()]
+            }
+            None => resp.peak_contact_force_n[0].max(resp.peak_contact_force_n[1]),
+        } / 1e3,
         seed,
         model_error: names.iter().cloned().zip(model_error).collect(),
         gain_error: names.iter().cloned().zip(gain_error).collect(),

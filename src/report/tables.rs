@@ -30,7 +30,7 @@ pub fn range_text(
 /// The paper-style comparison table of an identification.
 pub fn comparison_table(id: &Identification, truth: Option<&Truth>) -> String {
     let mut s = format!(
-        "{:<34} {:>6} {:>7}  {:<16} {:<16} {:<14}\n",
+        "{:<44} {:>6} {:>7}  {:<16} {:<16} {:<14}\n",
         "method", "points", "CMS", "L0 (mm)", "L (mm)", "d (mm)"
     );
     // The refined answer, when there is one, as a row of its own after the method's.
@@ -58,7 +58,7 @@ pub fn comparison_table(id: &Identification, truth: Option<&Truth>) -> String {
         .collect();
     for (method, points, cms_count, ranges) in &rows {
         s += &format!(
-            "{:<34} {:>6} {:>7}  {:<16} {:<16} {:<14}\n",
+            "{:<44} {:>6} {:>7}  {:<16} {:<16} {:<14}\n",
             method,
             points,
             cms_count,
@@ -67,16 +67,17 @@ pub fn comparison_table(id: &Identification, truth: Option<&Truth>) -> String {
             range_text(ranges, |r| r.depth_mm, 2)
         );
     }
-    let rm = &id.residual_minimisation;
-    s += &format!(
-        "{:<34} {:>6} {:>7}  {:<16} {:<16} {:<14}\n",
-        "residual minimisation (no unc.)",
-        id.eip.len(),
-        1,
-        format!("{:.0}", rm.l0_mm),
-        format!("{:.0}", rm.length_mm),
-        format!("{:.2}", rm.depth_mm)
-    );
+    if let Some(rm) = &id.residual_minimisation {
+        s += &format!(
+            "{:<44} {:>6} {:>7}  {:<16} {:<16} {:<14}\n",
+            "residual minimisation (no unc.)",
+            id.eip.len(),
+            1,
+            format!("{:.0}", rm.l0_mm),
+            format!("{:.0}", rm.length_mm),
+            format!("{:.2}", rm.depth_mm)
+        );
+    }
     if let Some(rs) = &id.random_subsets {
         s += &format!(
             "random subsets: {} draws of {} PIPs, CMS mean {:.1}, median {:.1}\n",
@@ -93,7 +94,7 @@ pub fn comparison_table(id: &Identification, truth: Option<&Truth>) -> String {
                 let inside = |x: f64, [lo, hi]: [f64; 2]| lo <= x && x <= hi;
                 let ok = inside(t.length_mm, r.length_mm) && inside(t.depth_mm, r.depth_mm);
                 s += &format!(
-                    "  {:<32} truth (L, d) inside its ranges: {}\n",
+                    "  {:<42} truth (L, d) inside its ranges: {}\n",
                     method,
                     if ok { "yes" } else { "NO" }
                 );
@@ -112,7 +113,22 @@ pub fn identification_text(id: &Identification) -> String {
     }
     s += &speed_line(&id.speed);
     s.push('\n');
-    s += &format!(
+    if let Some(d) = &id.detection {
+        s += &detection_line(d);
+        s.push('\n');
+    }
+    if id.detection.as_ref().is_some_and(|d| !d.flat_detected) {
+        s += &format!(
+            "alignment: {} (bank time = file time {:+.4} s{}); no sizing\n",
+            id.alignment.method,
+            id.alignment.shift_s,
+            id.alignment
+                .correlation
+                .map(|c| format!(", correlation {c:.4}"))
+                .unwrap_or_default(),
+        );
+    } else {
+        s += &format!(
         "alignment: {} (bank time = file time {:+.4} s{}); {} EIP of {} PIPs{}; per-point probability {:.5}\n",
         id.alignment.method,
         id.alignment.shift_s,
@@ -126,6 +142,7 @@ pub fn identification_text(id: &Identification) -> String {
         },
         id.per_point_probability
     );
+    }
     let t: Vec<String> = id
         .timings_ms
         .iter()
@@ -133,6 +150,57 @@ pub fn identification_text(id: &Identification) -> String {
         .collect();
     s += &format!("timings: {}\n", t.join(", "));
     s
+}
+
+/// The detection step in one line: the verdict, each sensor's gain and the sample nearest the
+/// bound (or farthest past it).
+pub fn detection_line(d: &crate::identify::Detection) -> String {
+    let gains: Vec<String> = d
+        .sensors
+        .iter()
+        .map(|t| {
+            format!(
+                "{} {:.3}{}",
+                t.sensor,
+                t.gain,
+                if t.gain_outside_table {
+                    " (clamped: level outside the table)"
+                } else {
+                    ""
+                }
+            )
+        })
+        .collect();
+    let worst = d.worst().map_or(String::new(), |w| {
+        format!(
+            "; {} {:.2} kN {} the bound at {} {:.4} s",
+            if w.excess_kn > 0.0 {
+                "flat-free model"
+            } else {
+                "closest sample"
+            },
+            w.excess_kn.abs(),
+            if w.excess_kn > 0.0 {
+                "beyond"
+            } else {
+                "inside"
+            },
+            w.sensor,
+            w.at_time_s
+        )
+    });
+    format!(
+        "detection: {} over {} samples (bound {:.2} kN + {:.0} % of the force); gains {}{worst}",
+        if d.flat_detected {
+            "flat detected"
+        } else {
+            "no flat detected"
+        },
+        d.samples,
+        d.bounds.absolute_kn + d.bounds.allowance_kn,
+        100.0 * d.bounds.allowance_fraction,
+        gains.join(", "),
+    )
 }
 
 /// Which bank a pass was compared with, and at what speed: `speed: pass 49.2 km/h, compared
@@ -218,7 +286,7 @@ pub fn audit_table(c: &MeasuredCheck) -> String {
 
 /// The line naming an audited instance's parameters, as `audit` prints it first.
 pub fn audit_instance_line(stored: &StoredInstance) -> String {
-    let [l, d, c, xp, l0, wheel] = stored.parameters;
+    let [l, d, c, xp, l0, wheel, _] = stored.parameters;
     let wheel = WheelPosition::from_code(wheel as u8).name();
     format!(
         "instance {}: L {l:.2} mm, d {d:.4} mm, c {c:.4} mm, X_p {xp:.4} m, L0 {l0:.1} mm, on the {wheel} wheel",
@@ -234,7 +302,7 @@ pub fn audit_json(
     resimulation: &Resimulation,
     measured: Option<&MeasuredCheck>,
 ) -> serde_json::Value {
-    let [l, d, c, xp, l0, wheel] = stored.parameters;
+    let [l, d, c, xp, l0, wheel, _] = stored.parameters;
     let wheel = WheelPosition::from_code(wheel as u8).name();
     serde_json::json!({
         "instance": stored.instance,
@@ -300,7 +368,7 @@ pub fn audit_panels<'a>(
 
 /// The audit figure's title: the instance's flat and, against a measurement, its verdict.
 pub fn audit_title(stored: &StoredInstance, check: Option<&MeasuredCheck>) -> String {
-    let [l, d, c, xp, _, _] = stored.parameters;
+    let [l, d, c, xp, _, _, _] = stored.parameters;
     let verdict = match check {
         Some(c) if c.kept => "kept",
         Some(_) => "falsified",

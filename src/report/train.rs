@@ -139,13 +139,19 @@ pub fn table_html(r: &TrainResult) -> String {
     for b in &r.bogies {
         let text = match &b.identification {
             None => format!(
-                "good-wheel check passes at all {} PIPs (closest {:.2} kN inside)",
-                b.flat_free.points,
-                -b.flat_free.worst.as_ref().map_or(0.0, |w| w.4)
+                "no flat detected: all {} samples within the good wheel's bounds (closest {:.2} kN inside){}",
+                b.detection.samples,
+                -b.detection.worst().map_or(0.0, |w| w.excess_kn),
+                b.detection
+                    .limit
+                    .as_ref()
+                    .and_then(|l| l.l0_mm)
+                    .map_or(String::new(), |l0| format!("; detection limit L0 {l0:.0} mm"))
             ),
             Some(id) => format!(
-                "good-wheel check fails at {} of {} PIPs; {}",
-                b.flat_free.outside, b.flat_free.points, id.summary
+                "flat detected ({:.2} kN beyond the good wheel's bounds); {}",
+                b.detection.worst().map_or(0.0, |w| w.excess_kn),
+                id.summary
             ),
         };
         h += &format!("<li>bogie {}: {}</li>\n", b.bogie, esc(&text));

@@ -112,5 +112,6 @@ pub(super) fn ranges_of(
             Flat::fresh_length_mm(depth_mm[1], radius_m),
         ],
         flat_wheels: wheels,
+        impact: None,
     })
 }

@@ -398,6 +398,36 @@ impl Calibration {
         )?;
         non_negative("identification.urgent_l0_mm", id.urgent_l0_mm)?;
         non_negative("identification.inspect_l0_mm", id.inspect_l0_mm)?;
+        within(
+            "identification.detection_allowance_kn",
+            id.detection_allowance_kn,
+            0.0,
+            100.0,
+        )?;
+        within(
+            "identification.detection_allowance_fraction",
+            id.detection_allowance_fraction,
+            0.0,
+            1.0,
+        )?;
+        within(
+            "identification.urgent_dynamic_ratio",
+            id.urgent_dynamic_ratio,
+            1.0,
+            100.0,
+        )?;
+        within(
+            "identification.inspect_dynamic_ratio",
+            id.inspect_dynamic_ratio,
+            1.0,
+            100.0,
+        )?;
+        within(
+            "identification.departure_model_form_fraction",
+            id.departure_model_form_fraction,
+            0.0,
+            1.0,
+        )?;
         for (i, u) in id.uncertainty.iter().enumerate() {
             finite(&format!("identification.uncertainty[{i}].min"), u.min)?;
             finite(&format!("identification.uncertainty[{i}].max"), u.max)?;

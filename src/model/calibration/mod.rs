@@ -217,6 +217,18 @@ pub struct UncertaintySource {
     pub max: f64,
 }
 
+/// What the maintenance rule acts on (`identification.maintenance_rule`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MaintenanceRule {
+    /// The upper bound of the fresh-flat length L0 over the candidates (the paper's rule).
+    #[default]
+    L0,
+    /// The upper bound of the candidates' dynamic ratio: the peak wheel–rail force at this
+    /// pass's speed and load over the static wheel load, as wayside impact detectors act.
+    Impact,
+}
+
 /// Identification settings (paper §2–3, docs/model.md §7–8). Not part of a bank's identity.
 /// Keys left out take their defaults.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -254,8 +266,39 @@ pub struct IdentificationParams {
     pub urgent_l0_mm: f64,
     /// Maintenance rule: upper L0 bound (mm) from which the wheel is to be inspected.
     pub inspect_l0_mm: f64,
+    /// What the maintenance rule acts on: `"l0"` (the limits above) or `"impact"` (the two
+    /// dynamic-ratio limits below). Every answer reports both quantities.
+    pub maintenance_rule: MaintenanceRule,
+    /// Impact rule: upper bound of the dynamic ratio (peak wheel–rail force over the static
+    /// wheel load) from which the wheelset is removed within 24 hours.
+    pub urgent_dynamic_ratio: f64,
+    /// Impact rule: upper dynamic-ratio bound from which the wheel is inspected.
+    pub inspect_dynamic_ratio: f64,
+    /// Detection before sizing (`identify::detect`): the flat-free model's own form error
+    /// allowed besides the table's absolute sources, absolute part (kN). The default mesh's
+    /// good-wheel prediction lies within 0.1 kN of a converged one (docs/identification.md).
+    pub detection_allowance_kn: f64,
+    /// ... and its part proportional to the flat-free force (fraction).
+    pub detection_allowance_fraction: f64,
+    /// Sizing also falsifies at each instance's own strikes (`identify::detect`): an instance
+    /// whose cell departs from the good wheel by more than the measurement does, at any sensor,
+    /// is ruled out. `false`: the EIP and envelope points alone (as before issue 36).
+    pub falsify_at_departures: bool,
+    /// The share of an instance's largest departure its truth may fall short by (the bank
+    /// mesh's error at impact peaks against a converged one, and the sampling phase of a short
+    /// spike), in the departure rule.
+    pub departure_model_form_fraction: f64,
     /// The uncertainty table (paper Table 2).
     pub uncertainty: Vec<UncertaintySource>,
+}
+
+impl VehicleParams {
+    /// The static load of one wheel on the rail (N): half the car body and bogie the half bogie
+    /// carries, plus the wheel, `((m_c + m_b)/2 + m_w)·g` (docs/model.md §3).
+    pub fn static_wheel_load_n(&self) -> f64 {
+        (0.5 * (self.car_body_mass_kg + self.bogie_mass_kg) + self.wheel_mass_kg)
+            * self.gravity_m_per_s2
+    }
 }
 
 /// The calibration document. Units are in the key names; see docs/model.md for the meaning.

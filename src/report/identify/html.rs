@@ -189,13 +189,14 @@ pub(super) fn render_html(
             )?;
         }
     }
-    let rm = &id.residual_minimisation;
-    writeln!(
-        h,
-        "<tr><th>Residual minimisation</th><td>L0 = {} mm (instance {}, no uncertainties)</td></tr>",
-        fmt_num(rm.l0_mm, 1),
-        rm.instance
-    )?;
+    if let Some(rm) = &id.residual_minimisation {
+        writeln!(
+            h,
+            "<tr><th>Residual minimisation</th><td>L0 = {} mm (instance {}, no uncertainties)</td></tr>",
+            fmt_num(rm.l0_mm, 1),
+            rm.instance
+        )?;
+    }
     writeln!(h, "</tbody>\n</table>")?;
 
     // Measurement and alignment.
@@ -246,6 +247,11 @@ pub(super) fn render_html(
     }
     writeln!(h, "</tbody>\n</table>")?;
     figure(&mut h, Figure::Series)?;
+    if let Some(d) = &id.detection {
+        writeln!(h, "<h2>Detection</h2>")?;
+        writeln!(h, "<p>{}</p>", e(&crate::report::tables::detection_line(d)))?;
+        figure(&mut h, Figure::Detection)?;
+    }
 
     // Comparison points.
     writeln!(h, "<h2>Comparison points</h2>")?;
@@ -357,13 +363,15 @@ pub(super) fn render_html(
     writeln!(h, "</tbody>\n</table>")?;
     figure(&mut h, Figure::ParallelCoordinates)?;
 
-    writeln!(h, "<h3>Residual minimisation without uncertainties</h3>")?;
-    writeln!(
-        h,
-        "<p>The instance that minimises the residual over the EIP, ignoring uncertainties \
-         (paper §4.4); compare its L0 with the CMS range.</p>"
-    )?;
-    write_instances(&mut h, std::slice::from_ref(rm))?;
+    if let Some(rm) = &id.residual_minimisation {
+        writeln!(h, "<h3>Residual minimisation without uncertainties</h3>")?;
+        writeln!(
+            h,
+            "<p>The instance that minimises the residual over the EIP, ignoring uncertainties \
+             (paper §4.4); compare its L0 with the CMS range.</p>"
+        )?;
+        write_instances(&mut h, std::slice::from_ref(rm))?;
+    }
 
     if !id.cms.is_empty() {
         const MAX_ROWS: usize = 500;

@@ -32,6 +32,7 @@ use super::canvas::{
 };
 use crate::identify::result::Identification;
 
+mod detection;
 mod entropy;
 mod html;
 mod parallel;
@@ -109,6 +110,9 @@ pub struct ReportFiles {
 pub enum Figure {
     /// Measured series with PIPs, EIP and falsification bands (paper Figs. 12, 13, 15).
     Series,
+    /// The detection step: each sensor's residual after its gain against the good wheel's
+    /// bound (docs/detection.md).
+    Detection,
     /// Entropy of the predictions at every PIP (paper Fig. 14).
     Entropy,
     /// Joint entropy against the number of points, per sensor set (paper Fig. 16).
@@ -121,8 +125,9 @@ pub enum Figure {
 
 impl Figure {
     /// Every figure, in report order.
-    pub const ALL: [Figure; 5] = [
+    pub const ALL: [Figure; 6] = [
         Figure::Series,
+        Figure::Detection,
         Figure::Entropy,
         Figure::JointEntropy,
         Figure::ParallelCoordinates,
@@ -134,6 +139,7 @@ impl Figure {
     pub fn name(self) -> &'static str {
         match self {
             Figure::Series => "series",
+            Figure::Detection => "detection",
             Figure::Entropy => "entropy",
             Figure::JointEntropy => "joint_entropy",
             Figure::ParallelCoordinates => "parallel_coordinates",
@@ -146,6 +152,7 @@ impl Figure {
     pub fn is_available(self, id: &Identification) -> bool {
         match self {
             Figure::RandomSubsets => id.random_subsets.is_some(),
+            Figure::Detection => detection::is_available(id),
             _ => true,
         }
     }
@@ -162,6 +169,12 @@ impl Figure {
                  circles: selected points (EIP), numbered in selection order; orange bars: the \
                  range of predictions that survive falsification at each EIP \
                  (measurement + thresholds)."
+            }
+            Figure::Detection => {
+                "Detection before sizing: per sensor, the measurement less the good wheel's \
+                 prediction scaled by the sensor's gain, against the good wheel's bound (the \
+                 table's absolute errors and the model-form allowance). A flat's strikes leave \
+                 the band; a good wheel stays inside it."
             }
             Figure::Entropy => {
                 "Entropy of the bank's predictions at every PIP; EIP in red, numbered in \
@@ -382,6 +395,10 @@ fn figure_size(id: &Identification, fig: Figure) -> (u32, u32) {
             let panels = id.series.len().max(1) as u32;
             (WIDTH, 110 + SERIES_PANEL_HEIGHT * panels)
         }
+        Figure::Detection => {
+            let panels = id.detection.as_ref().map_or(1, |d| d.sensors.len().max(1)) as u32;
+            (WIDTH, 110 + SERIES_PANEL_HEIGHT * panels)
+        }
         Figure::Entropy => (WIDTH, 620),
         Figure::JointEntropy => (WIDTH, 720),
         Figure::ParallelCoordinates => (WIDTH, 820),
@@ -398,6 +415,7 @@ fn render<DB: DrawingBackend>(
     root.fill(&WHITE).map_err(msg)?;
     match fig {
         Figure::Series => series::render_series(root, id),
+        Figure::Detection => detection::render_detection(root, id),
         Figure::Entropy => entropy::render_entropy(root, id),
         Figure::JointEntropy => entropy::render_joint_entropy(root, id),
         Figure::ParallelCoordinates => parallel::render_parallel(root, id),

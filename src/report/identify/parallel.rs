@@ -101,14 +101,16 @@ pub(super) fn render_parallel<DB: DrawingBackend>(
             Swatch::Line(CMS_COLOUR, 2),
         ));
     }
-    entries.push(Entry::new(
-        format!(
-            "residual minimisation without uncertainties (instance {}, L0 = {} mm)",
-            rm.instance,
-            fmt_num(rm.l0_mm, 1)
-        ),
-        Swatch::Dashed(EIP_COLOUR, 3),
-    ));
+    if let Some(rm) = rm {
+        entries.push(Entry::new(
+            format!(
+                "residual minimisation without uncertainties (instance {}, L0 = {} mm)",
+                rm.instance,
+                fmt_num(rm.l0_mm, 1)
+            ),
+            Swatch::Dashed(EIP_COLOUR, 3),
+        ));
+    }
     let title = format!(
         "Identified parameters: {n} of {} instances not falsified",
         id.bank_instances
@@ -154,8 +156,8 @@ pub(super) fn render_parallel<DB: DrawingBackend>(
         .map_err(msg)?;
     chart
         .draw_series(
-            finite_runs(instance_line(rm, &id.population).into_iter())
-                .into_iter()
+            rm.iter()
+                .flat_map(|rm| finite_runs(instance_line(rm, &id.population).into_iter()))
                 .map(|run| {
                     DashedPathElement::new(
                         run,

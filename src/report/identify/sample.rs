@@ -36,6 +36,22 @@ pub fn pulse(t: f64, impact: f64) -> f64 {
     q(4.0 + 55.0 * g(0.018, 0.006) + 70.0 * g(impact, 0.0012) + 45.0 * g(0.046, 0.006) + ripple)
 }
 
+/// The detection step on the sample's series against the pulse without its impact (the
+/// good wheel), with the default table.
+fn detection(series: &[MeasuredSeries]) -> crate::identify::Detection {
+    let template: Vec<f32> = (0..SAMPLES)
+        .map(|i| pulse(i as f64 / RATE_HZ, 1.0) as f32)
+        .collect();
+    let templates: Vec<&[f32]> = series.iter().map(|_| template.as_slice()).collect();
+    crate::identify::detect::detect(
+        series,
+        &templates,
+        crate::identify::detect::TableBounds::of(
+            &crate::model::calibration::IdentificationParams::default(),
+        ),
+    )
+}
+
 /// Parameter ranges over a set of instances: their hull (none when empty). The report used
 /// to show these for the CMS; the identification reports the union of cells, which is wider.
 pub fn hull_of(instances: &[InstanceParams]) -> Option<ParamRanges> {
@@ -53,6 +69,7 @@ pub fn hull_of(instances: &[InstanceParams]) -> Option<ParamRanges> {
             w.dedup();
             w
         },
+        impact: None,
     })
 }
 
@@ -144,7 +161,9 @@ pub fn identification() -> Identification {
             q((8.0f64 * 2.0 * 400.0).sqrt()),
         ],
         flat_wheels: vec![crate::model::WheelPosition::Trailing],
+        impact: None,
     };
+    let detected = detection(&series);
     Identification {
         measurement: "measurements/2019-03-14_train7_axle3.parquet".into(),
         speed: crate::identify::result::SpeedUse {
@@ -203,6 +222,7 @@ pub fn identification() -> Identification {
                     impact_position_m: [0.0, 3.0],
                     l0_mm: [31.0, 62.0],
                     flat_wheels: vec![crate::model::WheelPosition::Trailing],
+                    impact: None,
                 }),
             },
             Falsification {
@@ -212,7 +232,7 @@ pub fn identification() -> Identification {
                 ranges: None,
             },
         ],
-        residual_minimisation: InstanceParams {
+        residual_minimisation: Some(InstanceParams {
             instance: 4242,
             length_mm: 44.0,
             depth_mm: 0.52,
@@ -220,7 +240,7 @@ pub fn identification() -> Identification {
             impact_position_m: 1.1,
             l0_mm: q((8.0f64 * 0.52 * 400.0).sqrt()),
             flat_wheel: crate::model::WheelPosition::Trailing,
-        },
+        }),
         random_subsets: Some(RandomSubsets {
             subsets: 200,
             size: 6,
@@ -230,6 +250,8 @@ pub fn identification() -> Identification {
             seed: 7,
         }),
         model_class_refuted: false,
+        below_population: false,
+        detection: Some(detected),
         summary: SUMMARY.into(),
         maintenance_hint: "Remove the wheelset from service within 24 h (GM/RT2466: L0 > 50 mm)."
             .into(),

@@ -73,15 +73,34 @@ fn check_report(id: &Identification, svgs: usize) {
 }
 
 #[test]
-fn report_with_random_subsets_has_five_figures() {
-    check_report(&synthetic(), 5);
+fn report_with_random_subsets_has_six_figures() {
+    check_report(&synthetic(), 6);
 }
 
 #[test]
-fn report_without_random_subsets_has_four_figures() {
+fn a_result_without_a_detection_has_no_detection_figure() {
+    // An identification.json written before detection existed draws the others.
+    let mut id = synthetic();
+    id.detection = None;
+    check_report(&id, 5);
+    let err = figure_svg(&id, Figure::Detection).unwrap_err();
+    assert!(
+        matches!(
+            &err,
+            ReportError::Unavailable {
+                figure: Figure::Detection,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+}
+
+#[test]
+fn report_without_random_subsets_has_five_figures() {
     let mut id = synthetic();
     id.random_subsets = None;
-    check_report(&id, 4);
+    check_report(&id, 5);
     let err = figure_svg(&id, Figure::RandomSubsets).unwrap_err();
     assert!(
         matches!(&err, ReportError::Unavailable { path, figure: Figure::RandomSubsets }
@@ -214,6 +233,7 @@ fn html_shows_the_ranges_the_json_carries() {
         impact_position_m: widen(hull.impact_position_m, 0.07),
         l0_mm: widen(hull.l0_mm, 1.3),
         flat_wheels: hull.flat_wheels.clone(),
+        impact: None,
     };
     id.falsifications[0].ranges = Some(cells.clone());
     id.wheel_ranges = vec![WheelRanges {
