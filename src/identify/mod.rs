@@ -17,6 +17,7 @@ pub mod family;
 mod flat_free;
 pub mod measurement;
 pub mod pip;
+mod prepare;
 pub mod ranges;
 pub mod refine;
 pub mod result;
@@ -36,12 +37,11 @@ use cells::Cells;
 pub use detect::{Detection, DetectionLimit};
 use entropy::{bin_into, binned_columns, greedy_joint_entropy};
 use falsify::{falsify, random_subset_counts, residual_minimisation, Point, Resolution};
-use pip::{perceptually_important_points, PipDistance};
+use prepare::Prepared;
 use ranges::{instance, population_ranges, ranges_of};
 pub use result::WheelRanges;
 use result::{
-    Alignment, CandidatePoint, EntropyCurve, Falsification, InstanceParams, MeasuredSeries,
-    ParamRanges, RandomSubsets,
+    CandidatePoint, EntropyCurve, Falsification, InstanceParams, ParamRanges, RandomSubsets,
 };
 use severity::{below_population_words, summarise};
 use std::path::PathBuf;
@@ -107,16 +107,6 @@ impl Extras {
         baselines: false,
         curves: false,
     };
-}
-
-/// A measurement made ready for comparison with the bank.
-struct Prepared {
-    /// (measurement sensor index, bank axis index) of the sensors used.
-    used: Vec<(usize, usize)>,
-    alignment: Alignment,
-    series: Vec<MeasuredSeries>,
-    /// Candidate points: (series, sample, PIP order).
-    cands: Vec<(usize, usize, usize)>,
 }
 
 /// What is kept open between measurements.
@@ -243,124 +233,6 @@ impl Identifier {
             ),
             members,
         )
-    }
-
-    /// The per-measurement preparation of [`Identifier::identify`]: sensors, alignment, the
-    /// series on the bank's windows, and their PIPs.
-    fn prepare(
-        &self,
-        m: &Measurement,
-        sensors: Option<&[String]>,
-    ) -> Result<Prepared, IdentifyError> {
-        let meta = self.bank.metadata();
-        let cal = &meta.calibration;
-        let s = &self.settings;
-        // A pass at another speed than the bank's is put on the bank's time axis first.
-        let m = &*m.at_bank_speed(cal.run.speed_km_per_h)?;
-        let distance = PipDistance::parse(&s.pip_distance).ok_or_else(|| {
-            IdentifyError::Invalid(format!("unknown PIP distance `{}`", s.pip_distance))
-        })?;
-
-        // Sensors: those in the file (and asked for), each must be in the bank.
-        let mut used: Vec<(usize, usize)> = Vec::new(); // (measurement index, bank axis index)
-        for (mi, name) in m.sensors.iter().enumerate() {
-            if sensors.is_some_and(|list| !list.iter().any(|x| x == name)) {
-                continue;
-            }
-            let bi = meta
-                .sensors
-                .iter()
-                .position(|a| &a.name == name)
-                .ok_or_else(|| IdentifyError::Sensors {
-                    path: m.path.clone(),
-                    message: format!(
-                        "sensor `{name}` is not in the bank (bank sensors: {})",
-                        meta.sensors
-                            .iter()
-                            .map(|a| a.name.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    ),
-                })?;
-            used.push((mi, bi));
-        }
-        if let Some(list) = sensors {
-            for name in list {
-                if !m.sensors.contains(name) {
-                    return Err(IdentifyError::Sensors {
-                        path: m.path.clone(),
-                        message: format!(
-                            "sensor `{name}` was asked for but the file has no `{name}_kn` column"
-                        ),
-                    });
-                }
-            }
-        }
-        if used.is_empty() {
-            return Err(IdentifyError::Sensors {
-                path: m.path.clone(),
-                message: "no usable sensor".into(),
-            });
-        }
-        // Alignment.
-        let speed = cal.run.speed_km_per_h / 3.6;
-        let alignment = match m.laser_trigger_s {
-            Some(t) => {
-                let t_bank = (cal.sensors.laser_trigger_m - cal.run.leading_wheel_start_m) / speed;
-                Alignment {
-                    method: "laser trigger".into(),
-                    shift_s: t_bank - t,
-                    correlation: None,
-                }
-            }
-            None => {
-                let pairs: Vec<(usize, &crate::bank::schema::SensorAxis, &[f32])> = used
-                    .iter()
-                    .map(|&(mi, bi)| (mi, &meta.sensors[bi], meta.flat_free_kn[bi].as_slice()))
-                    .collect();
-                let (shift_s, c) = measurement::cross_correlate(m, &pairs).ok_or_else(|| {
-                    IdentifyError::TooShort {
-                        path: m.path.clone(),
-                        sensor: m.sensors[used[0].0].clone(),
-                        needed: [meta.sensors[used[0].1].t0_s, meta.sensors[used[0].1].t0_s],
-                        recorded: [m.t0_s, m.t0_s + (m.len() - 1) as f64 * m.dt_s],
-                    }
-                })?;
-                Alignment {
-                    method: "cross-correlation".into(),
-                    shift_s,
-                    correlation: Some(c),
-                }
-            }
-        };
-        let mut series = Vec::with_capacity(used.len());
-        for &(mi, bi) in &used {
-            let axis = &meta.sensors[bi];
-            series.push(MeasuredSeries {
-                sensor: axis.name.clone(),
-                t0_s: axis.t0_s,
-                sample_rate_hz: axis.sample_rate_hz,
-                values_kn: m.on_window(mi, axis, alignment.shift_s)?,
-            });
-        }
-
-        // PIPs → candidate points.
-        let mut cands: Vec<(usize, usize, usize)> = Vec::new(); // (series, sample, pip order)
-        for (si, ser) in series.iter().enumerate() {
-            for (order, k) in
-                perceptually_important_points(&ser.values_kn, s.pips_per_series, distance)
-                    .into_iter()
-                    .enumerate()
-            {
-                cands.push((si, k, order));
-            }
-        }
-        Ok(Prepared {
-            used,
-            alignment,
-            series,
-            cands,
-        })
     }
 
     /// Identifies the flat behind one measurement: detection first ([`detect`]); when no flat
