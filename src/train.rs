@@ -533,23 +533,25 @@ pub fn identify_train(
             id
         });
         for wheel in [WheelPosition::Leading, WheelPosition::Trailing] {
-            let by_rule = identification
-                .as_ref()
-                .and_then(|id| id.wheel_ranges.iter().find(|w| w.wheel == wheel))
-                .map(|w| Severity::of_ranges(&w.ranges, s));
-            let (flat, l0, count) = match &identification {
-                None => ("no", None, 0),
+            // (verdict, L0 range, CMS count, the settings' rule on the wheel's ranges)
+            let (flat, l0, count, by_rule) = match &identification {
+                None => ("no", None, 0, None),
                 // Smaller than the population: on a wheel the population puts flats on.
                 Some(id) if id.below_population => {
                     match id.population.flat_wheels.contains(&wheel) {
-                        true => ("yes", Some([0.0, id.population.l0_mm[0]]), 0),
-                        false => ("no", None, 0),
+                        true => ("yes", Some([0.0, id.population.l0_mm[0]]), 0, None),
+                        false => ("no", None, 0, None),
                     }
                 }
-                Some(id) if id.cms.is_empty() => ("unknown", None, 0),
+                Some(id) if id.cms.is_empty() => ("unknown", None, 0, None),
                 Some(id) => match id.wheel_ranges.iter().find(|w| w.wheel == wheel) {
-                    Some(w) => ("yes", Some(w.ranges.l0_mm), w.cms_count),
-                    None => ("no", None, 0),
+                    Some(w) => (
+                        "yes",
+                        Some(w.ranges.l0_mm),
+                        w.cms_count,
+                        Some(Severity::of_ranges(&w.ranges, s)),
+                    ),
+                    None => ("no", None, 0, None),
                 },
             };
             rows.push(WheelRow {

@@ -2,7 +2,7 @@
 //! ([`super::detect`]), its detection limit from the bank's departures table, and the answer of
 //! a pass in which no flat is detected. `identify`, `watch` and `train` all come through here.
 
-use super::detect::{self, Detection, DetectionLimit, TableBounds};
+use super::detect::{self, Detection, DetectionLimit};
 use super::ranges::population_ranges;
 use super::result::{Alignment, MeasuredSeries, SpeedUse};
 use super::{Identification, Identifier, IdentifyError, Measurement};
@@ -18,7 +18,7 @@ impl Identifier {
             .iter()
             .map(|&a| meta.flat_free_kn[a].as_slice())
             .collect();
-        detect::detect(series, &templates, TableBounds::of(&self.settings))
+        detect::detect(series, &templates, self.bounds)
     }
 
     /// The bank's departures table (read from its file, or computed and stored on first use;
@@ -36,12 +36,7 @@ impl Identifier {
     /// The detection limit of a pass through the bank axes `axes` ([`DetectionLimit`]).
     pub fn detection_limit(&self, axes: &[usize]) -> Result<DetectionLimit, IdentifyError> {
         let d = self.departures()?;
-        Ok(detect::limit(
-            &d,
-            &self.params.l0_mm,
-            axes,
-            &TableBounds::of(&self.settings),
-        ))
+        Ok(detect::limit(&d, &self.params.l0_mm, axes, &self.bounds))
     }
 
     /// Sizing's departure rule ([`detect::falsified_by_departure`]) over the candidate model
@@ -61,7 +56,6 @@ impl Identifier {
         let d = self.departures()?;
         let sensors: Vec<(usize, &detect::SensorTest)> =
             axes.iter().copied().zip(&detection.sensors).collect();
-        let b = TableBounds::of(s);
         let resolution = self.resolution();
         let ruled_out = |i: usize| {
             let cell = resolution.map_or(&[][..], |r| r.cells.neighbours(i));
@@ -70,7 +64,7 @@ impl Identifier {
                 i,
                 cell,
                 &sensors,
-                &b,
+                &self.bounds,
                 s.departure_model_form_fraction,
             )
         };

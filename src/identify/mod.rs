@@ -117,6 +117,8 @@ pub struct Identifier {
     cells: Cells,
     settings: IdentificationParams,
     uncertainty: CombinedUncertainty,
+    /// The table's hard bounds the detection step and the departure rule judge with.
+    bounds: detect::TableBounds,
     buffers: Mutex<buffer::HugeBuffer>,
     bin_buffers: Mutex<buffer::HugeBuffer>,
     /// The bank's departures table, loaded when a pass first needs its detection limit.
@@ -159,12 +161,14 @@ impl Identifier {
         cells: Cells,
     ) -> Identifier {
         let uncertainty = CombinedUncertainty::new(&settings);
+        let bounds = detect::TableBounds::of(&settings);
         Identifier {
             bank,
             params,
             cells,
             settings,
             uncertainty,
+            bounds,
             buffers: Mutex::new(buffer::HugeBuffer::default()),
             bin_buffers: Mutex::new(buffer::HugeBuffer::default()),
             departures: Mutex::new(None),
