@@ -9,7 +9,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use wheelflat::bank::{self, Bank, GenerateOptions, Quiet, StorageFormat};
-use wheelflat::identify::falsify::{falsify, Point};
+use wheelflat::identify::falsify::{falsify, Discretisation, Point};
 use wheelflat::identify::{synth, Extras, Identifier, Measurement};
 use wheelflat::model::{Calibration, Flat};
 
@@ -47,19 +47,31 @@ fn bench_identify(c: &mut Criterion) {
     // One falsification pass over the whole bank with the measurement's EIP.
     let r = id.identify(&m, Some(&sensors), quick).unwrap();
     let axes = &id.bank().metadata().sensors;
-    let cols: Vec<usize> = r
-        .eip
-        .iter()
-        .map(|&e| {
-            let cp = &r.candidates[e];
-            let s = axes
-                .iter()
-                .position(|a| a.name == r.series[cp.series].sensor)
-                .unwrap();
-            id.bank().sample_index(s, cp.sample)
-        })
-        .collect();
+    // Each EIP point's bank column, `d` samples from it (kept inside the window).
+    let columns_at = |d: isize| -> Vec<usize> {
+        r.eip
+            .iter()
+            .map(|&e| {
+                let cp = &r.candidates[e];
+                let s = axes
+                    .iter()
+                    .position(|a| a.name == r.series[cp.series].sensor)
+                    .unwrap();
+                let last = axes[s].samples as isize - 1;
+                id.bank()
+                    .sample_index(s, (cp.sample as isize + d).clamp(0, last) as usize)
+            })
+            .collect()
+    };
+    let cols = columns_at(0);
     let predictions = id.bank().read_columns(&cols).unwrap();
+    // The discretisation allowance's steps, as identification reads them (the samples either
+    // side of each EIP point; the envelope windows' own columns).
+    let side = |d: isize| id.bank().read_columns(&columns_at(d)).unwrap();
+    let (before, after) = (side(-1), side(1));
+    let eip_steps: Vec<Vec<f32>> = (0..cols.len())
+        .map(|j| wheelflat::identify::falsify::steps(&[&before[j], &predictions[j], &after[j]]))
+        .collect();
     let p = r.per_point_probability;
     let curves: Vec<_> = r
         .eip
@@ -72,7 +84,7 @@ fn bench_identify(c: &mut Criterion) {
         )
         .collect();
     // The envelope points' features: each window's extreme over its bank columns.
-    let features: Vec<Vec<f32>> = r
+    let (features, env_steps): (Vec<Vec<f32>>, Vec<Vec<f32>>) = r
         .envelope
         .iter()
         .map(|x| {
@@ -88,27 +100,36 @@ fn bench_identify(c: &mut Criterion) {
                 .collect();
             let data = id.bank().read_columns(&cols).unwrap();
             let refs: Vec<&[f32]> = data.iter().map(Vec::as_slice).collect();
-            wheelflat::identify::envelope::feature(&refs, x.kind == "max")
+            (
+                wheelflat::identify::envelope::feature(&refs, x.kind == "max"),
+                wheelflat::identify::falsify::steps(&refs),
+            )
         })
-        .collect();
+        .unzip();
     let mut points: Vec<Point> = r
         .eip
         .iter()
         .zip(&predictions)
         .zip(&curves)
-        .map(|((&e, g), c)| Point {
+        .enumerate()
+        .map(|(j, ((&e, g), c))| Point {
             predictions: g,
             measured_kn: r.candidates[e].measured_kn,
             low_kn: r.candidates[e].threshold_low_kn,
             high_kn: r.candidates[e].threshold_high_kn,
             curve: Some(c),
+            discretisation: Discretisation::of(id.discretisation(), &eip_steps, j),
         })
         .collect();
-    points.extend(wheelflat::identify::envelope::as_points(
-        &r.envelope,
-        &features,
-        &curves[r.eip.len()..],
-    ));
+    points.extend(
+        wheelflat::identify::envelope::as_points(&r.envelope, &features, &curves[r.eip.len()..])
+            .into_iter()
+            .enumerate()
+            .map(|(j, p)| Point {
+                discretisation: Discretisation::of(id.discretisation(), &env_steps, j),
+                ..p
+            }),
+    );
     c.bench_function(
         &format!("falsification_pass_{}_points_{n}_instances", points.len()),
         |b| b.iter(|| falsify(black_box(&points), id.resolution())),

@@ -7,7 +7,8 @@
 //! reference and the largest sample deviation over all five sensors (both in % of the
 //! reference peak), and the time per instance on one core.
 //!
-//! `cargo run --release --example convergence [e nc nf after_ms]...`
+//! `cargo run --release --example convergence [e nc nf after_ms]...` (`REF="e nc nf after_ms"`
+//! sets the reference).
 
 use std::time::Instant;
 use wheelflat::model::{Calibration, CheckedCalibration, Flat, Record, Response, Simulator};
@@ -58,7 +59,14 @@ fn main() {
             .map(|c| [c[0], c[1], c[2], c[3]])
             .collect()
     };
-    let reference_cal = calibration(16, 8, 20, 20.0);
+    // REF="e nc nf after_ms" sets the reference (issue 32: the converged reference against a
+    // still finer run).
+    let r: Vec<f64> = std::env::var("REF").map_or(vec![16.0, 8.0, 20.0, 20.0], |v| {
+        v.split_whitespace()
+            .map(|x| x.parse().expect("REF: four numbers"))
+            .collect()
+    });
+    let reference_cal = calibration(r[0] as usize, r[1] as usize, r[2] as usize, r[3]);
     let reference: Vec<Response> = flats
         .iter()
         .map(|(_, f)| {

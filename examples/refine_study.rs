@@ -2,7 +2,10 @@
 //! (`wheelflat::identify::refine`) on seeded cases over the whole population.
 //! `cargo run --release --example refine_study -- BANK CASES SEED [same|finer] [SIMULATIONS] [ROUNDS]`
 //! (`finer`: measurements simulated with 8 elements per bay and half the time steps).
-//! `SHOW=CASE` prints that case's rounds.
+//! (`converged`: measurements simulated with `Calibration::converged_reference`.)
+//! `SHOW=CASE` prints that case's rounds; `INSET=0` draws the truths over the whole population
+//! (default 0.05: 5 % of each range kept from the edges). The summary is repeated for the
+//! cases whose flat lost contact and for the others.
 //!
 //! (The box-filling refinement measured on 2026-11-23 is this file's earlier version, in git
 //! history before 2026-11-25; docs/decisions.md has its numbers.)
@@ -49,7 +52,12 @@ fn main() {
     let mut truth: Vec<(f64, usize)> = Vec::new();
     let (mut base, mut refined): (Vec<Judged>, Vec<Judged>) = (Vec::new(), Vec::new());
     let mut times: Vec<f64> = Vec::new();
-    for (case, flat) in coverage::truths(&cal, cases, seed).iter().enumerate() {
+    let inset: f64 = std::env::var("INSET").map_or(0.05, |v| v.parse().unwrap());
+    let mut lost: Vec<bool> = Vec::new();
+    for (case, flat) in coverage::truths_within(&cal, cases, seed, inset)
+        .iter()
+        .enumerate()
+    {
         let (m, t) = coverage::case(&meas_cal, flat, seed, case).unwrap();
         let out = id.identify(&m, None, Extras::NONE).unwrap();
         let r = refine(&id, &sim, &out, settings).unwrap();
@@ -57,8 +65,8 @@ fn main() {
         let n = judge(r.ranges.as_ref(), &t, false, insp, urg);
         let cls = severity_class(t.l0_mm, insp, urg);
         println!(
-            "{case:>3} L {:6.1} d {:.3} X {:.3} L0 {:5.1} cls {cls} | bank {} [{:5.1},{:5.1}] cls {} cms {} | refined {} [{:5.1},{:5.1}] cls {} rounds {:?}{} {:.0} ms",
-            t.length_mm, t.depth_mm, t.impact_position_m, t.l0_mm,
+            "{case:>3} L {:6.1} d {:.3} X {:.3} L0 {:5.1} off {:4.1} ms cls {cls} | bank {} [{:5.1},{:5.1}] cls {} cms {} | refined {} [{:5.1},{:5.1}] cls {} rounds {:?}{} {:.0} ms",
+            t.length_mm, t.depth_mm, t.impact_position_m, t.l0_mm, t.contact_loss_ms,
             u8::from(b.0), b.1[0], b.1[1], b.2, out.cms.len(),
             u8::from(n.0), n.1[0], n.1[1], n.2,
             r.rounds.iter().map(|x| x.survivors).collect::<Vec<_>>(),
@@ -70,10 +78,32 @@ fn main() {
                 eprintln!("round {i}: {x:?}");
             }
         }
+        lost.push(t.contact_loss_ms > 0.0);
         truth.push((t.l0_mm, cls));
         base.push(b);
         refined.push(n);
         times.push(r.time_ms);
+    }
+    for (group, want) in [("lost contact", true), ("kept contact", false)] {
+        let pick = |v: &[Judged]| -> Vec<Judged> {
+            v.iter()
+                .zip(&lost)
+                .filter(|(_, &l)| l == want)
+                .map(|(j, _)| *j)
+                .collect()
+        };
+        let t: Vec<(f64, usize)> = truth
+            .iter()
+            .zip(&lost)
+            .filter(|(_, &l)| l == want)
+            .map(|(t, _)| *t)
+            .collect();
+        if t.is_empty() {
+            continue;
+        }
+        println!("{group}: {} cases", t.len());
+        println!("{}", method_line("  bank-only", &t, &pick(&base), top));
+        println!("{}", method_line("  refined", &t, &pick(&refined), top));
     }
     times.sort_by(f64::total_cmp);
     println!("{}", method_line("bank-only", &truth, &base, top));

@@ -253,6 +253,10 @@ pub struct PointCheck {
     pub threshold_kn: [f64; 2],
     /// The instance's own cell widening (kN; see `identify::cells`).
     pub widening_kn: f64,
+    /// The bank mesh's discretisation allowance for the instance there (kN; its share of its
+    /// step between adjacent samples, `identify::discretisation`).
+    #[serde(default)]
+    pub discretisation_kn: f64,
     /// How far the residual lies outside the widened thresholds (kN; ≤ 0: inside, by that
     /// margin).
     pub outside_by_kn: f64,
@@ -291,6 +295,8 @@ struct Judged<'a> {
     thresholds: (f64, f64),
     /// Every instance's prediction (for the widening).
     all: &'a [f32],
+    /// The instance's discretisation allowance (kN).
+    allowance: f64,
 }
 
 impl Judged<'_> {
@@ -307,7 +313,8 @@ impl Judged<'_> {
         } else {
             identifier.band(self.measured, self.predicted, p)
         };
-        let (lo, hi) = (t_lo - widening, t_hi + widening);
+        let extra = widening + self.allowance;
+        let (lo, hi) = (t_lo - extra, t_hi + extra);
         let outside = if residual > hi {
             residual - hi
         } else if residual < lo {
@@ -325,6 +332,7 @@ impl Judged<'_> {
             residual_kn: residual,
             threshold_kn: [t_lo, t_hi],
             widening_kn: widening,
+            discretisation_kn: self.allowance,
             outside_by_kn: outside,
             envelope: None,
         }
@@ -348,6 +356,17 @@ pub fn check_against(
     };
     let i = stored.instance as usize;
     let p = id.per_point_probability;
+    // The instance's discretisation allowance: its share of its own largest step over
+    // samples `a..=b` of an axis (as identification reads it from the bank's columns).
+    let share = identifier.discretisation().map_or(0.0, |d| d[i] as f64);
+    let allowance = |axis: usize, a: usize, b: usize| {
+        let f = &stored.forces_kn[axis];
+        let b = b.min(f.len() - 1);
+        share
+            * (a..b)
+                .map(|j| (f[j + 1] - f[j]).abs())
+                .fold(0.0f32, f32::max) as f64
+    };
     let mut points = Vec::with_capacity(id.eip.len() + id.envelope.len());
     // The neighbours' predictions at the EIP give the instance's own widening.
     let cols: Vec<(usize, usize)> = id
@@ -373,6 +392,7 @@ pub fn check_against(
             measured: c.measured_kn,
             thresholds: (c.threshold_low_kn, c.threshold_high_kn),
             all: col,
+            allowance: allowance(axis, k.saturating_sub(1), k + 1),
         };
         points.push(judged.check(identifier, i, p));
     }
@@ -401,6 +421,7 @@ pub fn check_against(
             measured: x.measured_kn,
             thresholds: (x.threshold_low_kn, x.threshold_high_kn),
             all: &all,
+            allowance: allowance(axis, x.sample - x.half_width, x.sample + x.half_width),
         };
         let mut check = judged.check(identifier, i, p);
         check.envelope = Some(format!("{} ±{}", x.kind, x.half_width));

@@ -148,10 +148,8 @@ fn the_verdict_of_every_instance_matches_the_candidate_model_set_and_names_its_p
             );
             // The first one really is outside its widened band, by the amount stated.
             let p = &c.points[c.falsified_by[0]];
-            let (lo, hi) = (
-                p.threshold_kn[0] - p.widening_kn,
-                p.threshold_kn[1] + p.widening_kn,
-            );
+            let extra = p.widening_kn + p.discretisation_kn;
+            let (lo, hi) = (p.threshold_kn[0] - extra, p.threshold_kn[1] + extra);
             let beyond = (p.residual_kn - hi).max(lo - p.residual_kn);
             assert!((beyond - p.outside_by_kn).abs() < 1e-9);
         }

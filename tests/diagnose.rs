@@ -416,3 +416,120 @@ fn a_speed_line_beyond_the_bank_is_diagnosed_from_the_record_and_identify_still_
     let html = std::fs::read_to_string(out.join("diagnosis.html")).unwrap();
     assert!(html.contains("Noise from the record"));
 }
+
+/// Issue 32: ten clean passes of the converged reference whose field noise is coloured and
+/// 1.6–2× the table's (AR(1), ρ 0.7–0.85): the diagnosis names *noise above the uncertainty
+/// table*, with σ and ρ near the truth and the table entry to change, in at least 9 of 10
+/// (and names no effect there).
+/// (Before, it answered "no effect in the library explains the disagreement".)
+#[test]
+#[ignore = "acceptance: ten diagnoses, ~3 min on 2 cores"]
+fn noise_above_the_table_is_named_with_its_sigma_and_rho() {
+    let (dir, cal) = small_bank();
+    let id = Identifier::new(Bank::open(&dir).unwrap(), cal.identification.clone()).unwrap();
+    let converged = wheelflat::identify::coverage::converged_model(&cal);
+    let sigma_table = diagnose::fit::NoiseModel::from_settings(&cal.identification).sigma_kn;
+    let passes = [
+        (60.0, 0.45, 0.05, 12.35, 1.6, 0.7),
+        (45.0, 0.35, 0.10, 12.45, 1.8, 0.8),
+        (75.0, 0.55, 0.05, 12.40, 2.0, 0.85),
+        (50.0, 0.50, 0.00, 12.32, 1.7, 0.75),
+        (65.0, 0.30, 0.10, 12.48, 1.9, 0.7),
+        (42.0, 0.58, 0.05, 12.38, 1.6, 0.85),
+        (70.0, 0.40, 0.00, 12.43, 2.0, 0.8),
+        (55.0, 0.33, 0.10, 12.36, 1.8, 0.7),
+        (78.0, 0.48, 0.05, 12.46, 1.7, 0.85),
+        (48.0, 0.42, 0.00, 12.41, 1.9, 0.75),
+    ];
+    let mut named = 0;
+    for (k, &(l, d, c, xp, scale, rho)) in passes.iter().enumerate() {
+        let flat = Flat::from_mm(l, d, c, xp).unwrap();
+        let noise = synth::FieldNoise { scale, ar1: rho };
+        let syn =
+            synth::synthesize_with_noise(&converged, &flat, 50 + k as u64, true, noise).unwrap();
+        let m = Measurement::from_csv(Path::new("noisy.csv"), &syn.csv, 2500.0).unwrap();
+        let ident = id.identify(&m, None, Extras::NONE).unwrap();
+        let opts = diagnose::Options::default();
+        let out =
+            diagnose::diagnose(&id, &m, None, &ident, &opts, &wheelflat::bank::Quiet).unwrap();
+        let found = out.noise_above_table.as_ref();
+        println!(
+            "pass {k}: σ {:.2} kN ρ {rho} → {:?}: {}",
+            scale * sigma_table,
+            found.map(|f| (f.sigma_kn, f.rho)),
+            out.verdict
+        );
+        if let Some(f) = found {
+            assert!(out.verdict.starts_with("noise above the uncertainty table"));
+            assert!(out.verdict.contains(&f.entry) && f.suggested_kn[1] > f.bounds_kn[1]);
+            // σ̂ and ρ̂ as the finding states them: above the table, ρ̂ near the truth (σ̂ can
+            // carry the flat fit's own misfit on this small bank: +36 % once).
+            let s = f.sigma_kn;
+            assert!(
+                s >= 1.25 * sigma_table && s <= 1.5 * scale * sigma_table,
+                "σ {s}"
+            );
+            assert!((f.rho - rho).abs() <= 0.15, "ρ {}", f.rho);
+            named += 1;
+        }
+    }
+    assert!(named >= 9, "noise named in {named} of 10");
+}
+
+/// Issue 32: a site whose noise is above the table measures it from its passes (a good
+/// wheel and a flat, noise 2× the table's, ρ 0.8), and the calibration written carries the
+/// widened entry; with it the good wheel is "no flat detected" (with the table's noise the
+/// detection step sees the noise itself as departures).
+#[test]
+fn the_site_noise_is_measured_from_passes_into_a_calibration() {
+    let (dir, cal) = small_bank();
+    let tmp = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("site-noise");
+    std::fs::create_dir_all(&tmp).unwrap();
+    let noise = synth::FieldNoise {
+        scale: 2.0,
+        ar1: 0.8,
+    };
+    let flat = Flat::from_mm(58.0, 0.47, 0.04, 12.41).unwrap();
+    let good = synth::synthesize_pass(&cal, None, 31, true, noise).unwrap();
+    let with_flat = synth::synthesize_pass(&cal, Some(&flat), 32, true, noise).unwrap();
+    let (a, b) = (tmp.join("good.csv"), tmp.join("flat.csv"));
+    std::fs::write(&a, &good.csv).unwrap();
+    std::fs::write(&b, &with_flat.csv).unwrap();
+    let out = tmp.join("site.toml");
+    let _ = std::fs::remove_file(&out);
+    let run = std::process::Command::new(wheelflat_path())
+        .args(["calibration", "--noise-from"])
+        .arg(&a)
+        .arg(&b)
+        .arg("--bank")
+        .arg(&dir)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    assert!(stderr.contains("widened"), "{stderr}");
+    let site =
+        wheelflat::model::Calibration::from_toml_str(&std::fs::read_to_string(&out).unwrap())
+            .unwrap()
+            .check()
+            .unwrap();
+    // The entry bounds ±4σ̂, σ̂ within 20 % of the truth (2× the table's σ).
+    let table = diagnose::fit::NoiseModel::from_settings(&cal.identification).sigma_kn;
+    let entry = site
+        .identification
+        .uncertainty
+        .iter()
+        .find(|u| u.name == "environment noise")
+        .unwrap();
+    let sigma = entry.max / diagnose::noise::BOUND_SD;
+    assert!(
+        (sigma / (2.0 * table) - 1.0).abs() < 0.2,
+        "{sigma} vs {table}"
+    );
+    let id = Identifier::new(Bank::open(&dir).unwrap(), site.identification.clone()).unwrap();
+    let m = Measurement::from_csv(&a, &good.csv, 2500.0).unwrap();
+    let r = id.identify(&m, None, Extras::NONE).unwrap();
+    assert!(!r.detection.unwrap().flat_detected, "{}", r.summary);
+}

@@ -116,14 +116,21 @@ fn cross_correlation_finds_the_same_shift_as_the_laser_trigger() {
 /// (the whole of this bank's L0 range, 31–43.8 mm), 0.00. The width and share limits were set
 /// after that measurement: issue 11's own figures (13 mm, 0.80) are for the full default bank,
 /// whose L0 range is 3× this one's (docs/performance.md, "Informative answers").
+///
+/// The mechanism is tested without issue 32's discretisation allowance (both sides): with it,
+/// deep flats that land can no longer be ruled out on this landing-heavy narrow bank, and the
+/// default settings give 1.00, 12.8 mm and 0.26 of 35 here (2026-11-26) — the allowance's
+/// price, measured on the full bank in docs/identification.md ("Discretisation error").
 #[test]
 fn upper_l0_bound_comes_from_the_measurement_not_the_population_edge() {
     use wheelflat::bank::neighbours::neighbour_graph_weighted;
     use wheelflat::identify::coverage::{judge, severity_limits};
     let (dir, cal) = small_bank();
     let (insp, urg, top) = severity_limits(cal);
-    let new = identifier();
-    let mut before_settings = cal.identification.clone();
+    let mut settings = cal.identification.clone();
+    settings.discretisation_fraction = 0.0;
+    let new = Identifier::new(Bank::open(dir).unwrap(), settings.clone()).unwrap();
+    let mut before_settings = settings;
     before_settings.envelope_windows_per_sensor = 0;
     let bank = Bank::open(dir).unwrap();
     let plain =
@@ -334,4 +341,77 @@ fn detection_separates_good_wheels_from_flats_of_a_converged_model() {
         .identify(&independent("tiny1"), None, Extras::NONE)
         .unwrap();
     assert!(tiny.detection.unwrap().flat_detected);
+}
+
+/// A CI-sized bank of flats that all lose contact and land (L 10–60 mm, d 0.5–1.0 mm), the
+/// population issue 32 found the bank's discretisation error in.
+fn landing_bank() -> &'static CachedBank {
+    cached_bank(
+        "identify-landing-bank",
+        || {
+            let mut c = wheelflat::model::Calibration::narrow_profile();
+            c.population.length_mm = [10.0, 60.0];
+            c.population.depth_mm = [0.5, 1.0];
+            c.population.curvature_mm = [0.0, 0.2];
+            c.check().unwrap()
+        },
+        2000,
+        1000,
+    )
+}
+
+/// Issue 32: measurements from the converged reference (40 elements per bay, Δt 2·10⁻⁵ s,
+/// errors per Eq. 1) of flats that lose contact. The bank mesh lands them up to a sample
+/// away, and before the discretisation allowance the truth was refuted in a fifth of such
+/// cases on the default bank (docs/identification.md, "Discretisation error"). With it, the
+/// truth stays inside the (L, d) ranges in at least 90 % of 24 cases (EDMF promises φ = 0.95;
+/// 24 cases cannot show more than that), and no case is refuted. Without the allowance
+/// (`discretisation_fraction` 0, today's thresholds before it) the same cases fall below that
+/// (measured and stated in the docs, not asserted: the test is of the allowance).
+#[test]
+fn coverage_survives_the_converged_reference_where_flats_land() {
+    let (dir, cal) = landing_bank();
+    let id = Identifier::new(Bank::open(dir).unwrap(), cal.identification.clone()).unwrap();
+    assert!(
+        id.discretisation().is_some(),
+        "the default settings allow for the mesh"
+    );
+    let converged = coverage::converged_model(cal);
+    let truths = coverage::truths_within(cal, 24, 32, 0.0);
+    let cases: Vec<(Measurement, synth::Truth)> = {
+        use rayon::prelude::*;
+        truths
+            .par_iter()
+            .enumerate()
+            .map(|(k, f)| coverage::case(&converged, f, 32, k).unwrap())
+            .collect()
+    };
+    let lost = cases.iter().filter(|c| c.1.contact_loss_ms > 0.0).count();
+    assert!(
+        lost >= 20,
+        "the landing population loses contact: {lost} of 24"
+    );
+    let (insp, urg, _) = coverage::severity_limits(cal);
+    let mut covered = 0;
+    for (m, t) in &cases {
+        let out = id.identify(m, None, Extras::NONE).unwrap();
+        let ranges = out.falsifications[0].ranges.as_ref();
+        assert!(ranges.is_some(), "a clean case refuted: {t:?}");
+        covered += usize::from(coverage::judge(ranges, t, false, insp, urg).0);
+    }
+    // Today's thresholds before the allowance, for the record (--nocapture).
+    let mut before = cal.identification.clone();
+    before.discretisation_fraction = 0.0;
+    let old = Identifier::new(Bank::open(dir).unwrap(), before).unwrap();
+    let old_covered = cases
+        .iter()
+        .filter(|(m, t)| {
+            let out = old.identify(m, None, Extras::NONE).unwrap();
+            coverage::judge(out.falsifications[0].ranges.as_ref(), t, false, insp, urg).0
+        })
+        .count();
+    eprintln!(
+        "landing cases: truth inside {covered} of 24 with the allowance, {old_covered} without"
+    );
+    assert!(covered >= 22, "truth inside in {covered} of 24");
 }

@@ -1,4 +1,4 @@
-//! What the issue-11 study examples share: the arguments `BANK CASES SEED [same|finer] …`,
+//! What the issue-11 study examples share: the arguments `BANK CASES SEED [same|finer|converged] …`,
 //! the bank, its calibration and the model the cases' measurements are simulated with.
 // Each example compiles this module on its own and uses part of it.
 #![allow(dead_code)]
@@ -27,11 +27,14 @@ pub struct Study {
 }
 
 impl Study {
-    /// Reads `BANK CASES SEED [same|finer]` from the command line; `usage` names the rest.
+    /// Reads `BANK CASES SEED [same|finer|converged]` from the command line; `usage` names the rest.
     pub fn from_args(usage: &str) -> Study {
         let args: Vec<String> = std::env::args().collect();
         if args.len() < 4 {
-            panic!("usage: {} BANK CASES SEED [same|finer] {usage}", args[0]);
+            panic!(
+                "usage: {} BANK CASES SEED [same|finer|converged] {usage}",
+                args[0]
+            );
         }
         let bank = Bank::open(Path::new(&args[1])).expect("bank");
         let cal = bank
@@ -41,8 +44,13 @@ impl Study {
             .check()
             .expect("calibration");
         let finer = args.get(4).is_some_and(|s| s == "finer");
+        let converged = args.get(4).is_some_and(|s| s == "converged");
         Study {
-            meas_cal: coverage::measurement_model(&cal, finer),
+            meas_cal: if converged {
+                coverage::converged_model(&cal)
+            } else {
+                coverage::measurement_model(&cal, finer)
+            },
             cases: args[2].parse().expect("CASES"),
             seed: args[3].parse().expect("SEED"),
             bank,

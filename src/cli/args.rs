@@ -32,6 +32,14 @@ pub(super) enum Command {
         /// `train` (either wheel, X_p over one wheel revolution; what `train` needs).
         #[arg(long, value_enum, default_value_t = Profile::Paper)]
         profile: Profile,
+        /// Measure the site's noise from these passes (good wheels or flats: the strikes are
+        /// left out) and widen the uncertainty table's noise entry to it when it is above the
+        /// table; the bank's calibration is the starting point.
+        #[arg(long, num_args = 1.., requires = "bank")]
+        noise_from: Vec<PathBuf>,
+        /// The bank (or family) the passes are compared with (with `--noise-from`).
+        #[arg(long)]
+        bank: Option<PathBuf>,
     },
     /// Simulate one train pass over the sensors and write the rail-pad forces.
     Simulate(SimulateArgs),

@@ -45,7 +45,17 @@ pub fn main() -> ExitCode {
     }
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Calibration { out, profile } => calibration::run(out.as_deref(), profile),
+        Command::Calibration {
+            out,
+            profile,
+            noise_from,
+            bank,
+        } => match bank {
+            Some(bank) if !noise_from.is_empty() => {
+                calibration::site_noise(out.as_deref(), &bank, &noise_from)
+            }
+            _ => calibration::run(out.as_deref(), profile),
+        },
         Command::Simulate(args) => simulate::run(&args),
         Command::Bank { command } => match command {
             BankCommand::Generate(a) => bank::generate(&a, true),

@@ -126,6 +126,10 @@ pub struct Diagnosis {
     /// The noise estimated from the record (None when there was nothing to explain).
     #[serde(default)]
     pub noise: Option<noise::NoiseEstimate>,
+    /// The record's noise when it is above the uncertainty table and no effect is named: the
+    /// finding, with the table entry to change.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_above_table: Option<noise::NoiseAboveTable>,
     /// The ranking of the effects (None when there was nothing to explain).
     pub naming: Option<Naming>,
     /// The effect added, when one was named and a local bank asked for.
@@ -392,6 +396,7 @@ pub fn diagnose(
         before,
         before_stage,
         noise: None,
+        noise_above_table: None,
         naming: None,
         added: None,
         verdict: String::new(),
@@ -560,6 +565,22 @@ pub fn diagnose(
     }
     naming.simulations = problem.simulations();
     naming.second_flat_l0_mm = named_second_flat_l0(&naming, cal.vehicle.wheel_radius_m);
+    // Noise above the table is a finding of its own when no effect is named: the site should
+    // hear which table entry to change, not that nothing explains the record.
+    if naming.named_effects().is_empty() {
+        let table = &identifier.settings().uncertainty;
+        if let Some(f) = estimate
+            .sigma_estimated_kn
+            .and_then(|s| noise::NoiseAboveTable::of(s, estimate.rho, table))
+        {
+            out.verdict = format!(
+                "{}; with it, the library's effects: {}",
+                f.words(),
+                out.verdict
+            );
+            out.noise_above_table = Some(f);
+        }
+    }
     lap("name", &mut timings);
     let named = naming.named_effects();
     if let (Some(flat), Some(dir)) = (naming.named_flat(), &opts.local_bank_dir) {

@@ -40,6 +40,121 @@ pub struct NoiseEstimate {
     pub sigma_used_kn: f64,
 }
 
+/// The record's noise counts as above the uncertainty table when its σ exceeds the table's
+/// absolute sources' σ by this factor (the estimator is within 10 % of the truth on 1,000
+/// samples, docs/diagnosis.md; set before measuring, not tuned).
+pub const ABOVE_TABLE: f64 = 1.25;
+
+/// The half-width of the table entry that holds a site's noise, in its σ ([`CLIP_SD`]): a
+/// Gaussian value exceeds it with probability 6·10⁻⁵.
+pub const BOUND_SD: f64 = CLIP_SD;
+
+/// The site's noise against the table, and the table entry that would hold it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NoiseAboveTable {
+    /// σ estimated (kN).
+    pub sigma_kn: f64,
+    /// Lag-1 correlation estimated.
+    pub rho: f64,
+    /// σ of the table's absolute sources (kN).
+    pub sigma_table_kn: f64,
+    /// The table entry to change (the largest absolute measurement source).
+    pub entry: String,
+    /// Its bounds today (kN).
+    pub bounds_kn: [f64; 2],
+    /// Its bounds for the estimated σ: ±[`BOUND_SD`]·σ about its centre (kN).
+    pub suggested_kn: [f64; 2],
+}
+
+impl NoiseAboveTable {
+    /// The finding when `sigma_kn` is at least [`ABOVE_TABLE`] times the table's σ; None when
+    /// the table holds it (or has no absolute measurement source to change).
+    pub fn of(
+        sigma_kn: f64,
+        rho: f64,
+        table: &[crate::model::calibration::UncertaintySource],
+    ) -> Option<NoiseAboveTable> {
+        use crate::model::calibration::{UncertaintyGroup, UncertaintyKind};
+        let var = |u: &crate::model::calibration::UncertaintySource| (u.max - u.min).powi(2) / 12.0;
+        let absolute: Vec<&crate::model::calibration::UncertaintySource> = table
+            .iter()
+            .filter(|u| u.kind == UncertaintyKind::AbsoluteKn)
+            .collect();
+        let sigma_table = absolute.iter().map(|u| var(u)).sum::<f64>().sqrt();
+        if sigma_kn.is_nan() || sigma_kn < ABOVE_TABLE * sigma_table {
+            return None;
+        }
+        let entry = absolute
+            .iter()
+            .filter(|u| u.group == UncertaintyGroup::Measurement)
+            .max_by(|a, b| var(a).total_cmp(&var(b)))?;
+        // The table's sources are uniform, the site's noise is not bounded (coloured noise is
+        // near Gaussian): the entry is made to bound ±[`BOUND_SD`]·σ̂ about its centre, the
+        // level beyond which [`estimate`] calls a value a transient, not noise.
+        let width = 2.0 * BOUND_SD * sigma_kn;
+        let centre = 0.5 * (entry.min + entry.max);
+        Some(NoiseAboveTable {
+            sigma_kn,
+            rho,
+            sigma_table_kn: sigma_table,
+            entry: entry.name.clone(),
+            bounds_kn: [entry.min, entry.max],
+            suggested_kn: [centre - 0.5 * width, centre + 0.5 * width],
+        })
+    }
+
+    /// `table` with the entry widened to the suggested bounds.
+    pub fn apply(&self, table: &mut [crate::model::calibration::UncertaintySource]) {
+        for u in table.iter_mut().filter(|u| u.name == self.entry) {
+            u.min = self.suggested_kn[0];
+            u.max = self.suggested_kn[1];
+        }
+    }
+
+    /// The finding in words.
+    pub fn words(&self) -> String {
+        format!(
+            "noise above the uncertainty table: σ = {:.2} kN, lag-1 correlation ρ = {:.2} estimated from the record's flat-free parts (the table's absolute sources: σ = {:.2} kN, independent); widen the table's \"{}\" from [{:.2}, {:.2}] to [{:.2}, {:.2}] kN, or measure the site's noise with `wheelflat calibration --noise-from`",
+            self.sigma_kn,
+            self.rho,
+            self.sigma_table_kn,
+            self.entry,
+            self.bounds_kn[0],
+            self.bounds_kn[1],
+            self.suggested_kn[0],
+            self.suggested_kn[1]
+        )
+    }
+}
+
+/// One pass's residuals from the flat-free template at each sensor's fitted gain
+/// (detection's, [`crate::identify::detect`]), one series per sensor: with every sample
+/// kept, [`estimate`] measures the site's noise from them, its clipping leaving out the
+/// strikes of a flat.
+pub fn pass_residuals(
+    identifier: &crate::identify::Identifier,
+    m: &crate::identify::Measurement,
+) -> Result<Vec<Vec<f64>>, crate::identify::IdentifyError> {
+    let id = identifier.identify(m, None, crate::identify::Extras::NONE)?;
+    let Some(det) = id.detection.as_ref() else {
+        return Ok(Vec::new());
+    };
+    Ok(det
+        .sensors
+        .iter()
+        .filter_map(|test| {
+            let ser = id.series.iter().find(|s| s.sensor == test.sensor)?;
+            Some(
+                ser.values_kn
+                    .iter()
+                    .zip(&test.flat_free_kn)
+                    .map(|(y, g)| y - test.gain * g)
+                    .collect(),
+            )
+        })
+        .collect())
+}
+
 /// Half-width m of the local quadratic removed before the noise is measured (a window of
 /// 2m + 1 = 21 samples, 8.4 ms at 2.5 kHz): what varies over longer than that — a missing
 /// effect's gap, out-of-roundness up to about 50 Hz — is not noise.
@@ -230,6 +345,34 @@ pub fn whiten(x: &[f64], sigma: f64, rho: f64) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn noise_above_the_table_names_the_entry_and_the_bounds_that_hold_it() {
+        let table = crate::model::Calibration::default()
+            .identification
+            .uncertainty;
+        // The table's absolute sources: ±1 kN noise and ±0.05 kN resolution, σ = 0.578 kN.
+        assert!(
+            NoiseAboveTable::of(0.6, 0.0, &table).is_none(),
+            "within 1.25×"
+        );
+        let f = NoiseAboveTable::of(1.0, 0.8, &table).expect("1.73× the table");
+        assert_eq!(f.entry, "environment noise");
+        assert!(
+            (f.sigma_table_kn - 0.5781).abs() < 1e-3,
+            "{}",
+            f.sigma_table_kn
+        );
+        // The widened entry bounds ±4σ about its centre.
+        let mut wider = table.clone();
+        f.apply(&mut wider);
+        let e = wider
+            .iter()
+            .find(|u| u.name == "environment noise")
+            .unwrap();
+        assert_eq!((e.min, e.max), (-4.0, 4.0));
+        assert!(f.words().contains("σ = 1.00 kN") && f.words().contains("ρ = 0.80"));
+    }
 
     /// A seeded AR(1) series of Gaussian innovations (Box–Muller on splitmix).
     fn ar1(n: usize, sigma: f64, rho: f64, seed: u64) -> Vec<f64> {

@@ -31,8 +31,15 @@ pub struct CaseResult {
 /// Truths drawn inside the bank's population ranges, kept a little away from the edges (a
 /// truth on the boundary of the sampled box cannot be surrounded by instances).
 pub fn truths(cal: &CheckedCalibration, cases: usize, seed: u64) -> Vec<Flat> {
+    truths_within(cal, cases, seed, 0.05)
+}
+
+/// Truths drawn inside the bank's population ranges with a margin of `inset` (a fraction of
+/// each range) kept from the edges of L, d and X_p; `inset` 0 draws over the whole population
+/// (issue 32: no edge may refute a truth inside it).
+pub fn truths_within(cal: &CheckedCalibration, cases: usize, seed: u64, inset: f64) -> Vec<Flat> {
     let mut inner = cal.population.clone();
-    let shrink = |r: [f64; 2]| [r[0] + 0.05 * (r[1] - r[0]), r[1] - 0.05 * (r[1] - r[0])];
+    let shrink = |r: [f64; 2]| [r[0] + inset * (r[1] - r[0]), r[1] - inset * (r[1] - r[0])];
     inner.length_mm = shrink(inner.length_mm);
     inner.depth_mm = shrink(inner.depth_mm);
     inner.impact_position_m = shrink(inner.impact_position_m);
@@ -205,8 +212,9 @@ pub fn method_line(name: &str, truth: &[(f64, usize)], answers: &[Judged], top_m
     let under_called = (0..answers.len())
         .filter(|&i| answers[i].2 < truth[i].1)
         .count();
+    let refuted = answers.iter().filter(|a| a.1[0].is_nan()).count();
     format!(
-        "{name}: coverage {cov:.3}, median L0 width {:.1} mm, upper below top {below:.2} (of {} with L0 < 50), severity right {right:.2}, under-called {under_called}",
+        "{name}: coverage {cov:.3}, refuted {refuted}, median L0 width {:.1} mm, upper below top {below:.2} (of {} with L0 < 50), severity right {right:.2}, under-called {under_called}",
         w.get(w.len() / 2).copied().unwrap_or(f64::NAN),
         under.len()
     )
@@ -229,6 +237,15 @@ pub fn measurement_model(cal: &CheckedCalibration, finer: bool) -> CheckedCalibr
     } else {
         cal.clone()
     }
+}
+
+/// The converged reference of `cal` ([`crate::model::Calibration::converged_reference`]):
+/// measurements that carry the bank's whole discretisation error, as a field record does.
+pub fn converged_model(cal: &CheckedCalibration) -> CheckedCalibration {
+    cal.document()
+        .converged_reference()
+        .check()
+        .expect("the converged mesh and step keep a valid calibration")
 }
 
 /// The finer model that measurements with model-form error are simulated with: twice the

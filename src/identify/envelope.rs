@@ -157,6 +157,7 @@ pub fn as_points<'a>(
             low_kn: r.threshold_low_kn,
             high_kn: r.threshold_high_kn,
             curve: Some(c),
+            discretisation: None,
         })
         .collect()
 }

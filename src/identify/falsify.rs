@@ -21,6 +21,49 @@ pub struct Point<'a> {
     /// The thresholds at a prediction's own force, for predictions larger than the
     /// measurement (`None`: the measured force's thresholds for every instance).
     pub curve: Option<&'a ThresholdCurve>,
+    /// The bank mesh's discretisation error allowed at the point (None: none).
+    pub discretisation: Option<Discretisation<'a>>,
+}
+
+/// The bank mesh's discretisation error at one point (docs/identification.md,
+/// "Discretisation error"): against a converged reference, the error around a landing impact
+/// is a shift in time of a steep front, bounded by a share of the prediction's step between
+/// adjacent samples there. Instance `k`'s band is widened by `shares[k] · steps[k]`.
+#[derive(Debug, Clone, Copy)]
+pub struct Discretisation<'a> {
+    /// Each instance's share (0 for a flat that keeps contact).
+    pub shares: &'a [f32],
+    /// Each instance's largest step between adjacent samples the point reads, one sample
+    /// either side included (kN).
+    pub steps: &'a [f32],
+}
+
+impl<'a> Discretisation<'a> {
+    /// The allowance of point `j` from per-point `steps`, when there are `shares`.
+    pub fn of(shares: Option<&'a [f32]>, steps: &'a [Vec<f32>], j: usize) -> Option<Self> {
+        shares.map(|shares| Discretisation {
+            shares,
+            steps: &steps[j],
+        })
+    }
+
+    /// Instance `k`'s allowance (kN).
+    #[inline]
+    pub fn allowance(&self, k: usize) -> f64 {
+        self.shares[k] as f64 * self.steps[k] as f64
+    }
+}
+
+/// Each instance's largest step between adjacent columns of `columns` (consecutive samples).
+pub fn steps(columns: &[&[f32]]) -> Vec<f32> {
+    let n = columns.first().map_or(0, |c| c.len());
+    let mut out = vec![0.0f32; n];
+    for pair in columns.windows(2) {
+        for ((o, a), b) in out.iter_mut().zip(pair[0]).zip(pair[1]) {
+            *o = o.max((b - a).abs());
+        }
+    }
+    out
 }
 
 /// The bank's resolution as used by falsification (see [`super::cells`]): instance i passes a
@@ -53,12 +96,15 @@ fn passes(p: &Point, lo: f64, hi: f64, k: usize, res: Option<Resolution>) -> boo
     if g >= lo && g <= hi {
         return true;
     }
+    // The bank mesh's own error at a landing's steep front (a bounded source added to the band).
+    let need =
+        if g > hi { g - hi } else { lo - g } - p.discretisation.map_or(0.0, |d| d.allowance(k));
+    if need <= 0.0 {
+        return true;
+    }
     // The neighbours cost K gathers: only looked at where the plain test fails, and only
     // until one differs by enough (|g_j − g_k| ≥ distance to the band / κ).
-    res.is_some_and(|r| {
-        let need = if g > hi { g - hi } else { lo - g };
-        r.kappa > 0.0 && r.cells.spread_reaches(p.predictions, k, need / r.kappa)
-    })
+    res.is_some_and(|r| r.kappa > 0.0 && r.cells.spread_reaches(p.predictions, k, need / r.kappa))
 }
 
 /// Instances that no point falsifies (indices into the prediction vectors).
@@ -168,6 +214,7 @@ mod tests {
                 low_kn: -1.0,
                 high_kn: 1.0,
                 curve: None,
+                discretisation: None,
             },
             Point {
                 predictions: &b,
@@ -175,6 +222,7 @@ mod tests {
                 low_kn: -0.2,
                 high_kn: 0.6,
                 curve: None,
+                discretisation: None,
             },
         ];
         assert_eq!(falsify(&pts, None), vec![1, 2]);
@@ -195,6 +243,7 @@ mod tests {
             low_kn: -1.0,
             high_kn: 1.0,
             curve: None,
+            discretisation: None,
         }];
         assert!(falsify(&pts, None).is_empty(), "nothing within ±1 kN of 5");
         // With four instances everyone neighbours everyone, so every spread is 8 kN.
@@ -235,9 +284,35 @@ mod tests {
             low_kn: lo,
             high_kn: hi,
             curve,
+            discretisation: None,
         };
         assert!(falsify(&[point(None)], None).is_empty());
         assert_eq!(falsify(&[point(Some(&curve))], None), vec![0]);
+    }
+
+    #[test]
+    fn the_discretisation_allowance_widens_by_each_instance_share_of_its_step() {
+        // Three instances 2 kN above the band's top; steps 1, 4 and 8 kN; shares 0.5, 0.5, 0.
+        let g = [12.0f32, 12.0, 12.0];
+        let prev = [11.0f32, 8.0, 4.0];
+        let steps = steps(&[&prev, &g]);
+        assert_eq!(steps, vec![1.0, 4.0, 8.0]);
+        let shares = [0.5f32, 0.5, 0.0];
+        let point = |d| Point {
+            predictions: &g,
+            measured_kn: 5.0,
+            low_kn: -5.0,
+            high_kn: 5.0,
+            curve: None,
+            discretisation: d,
+        };
+        assert!(falsify(&[point(None)], None).is_empty());
+        let d = Discretisation {
+            shares: &shares,
+            steps: &steps,
+        };
+        // 0.5 kN and 2 kN of allowance: only the second reaches the 2 kN; the third has none.
+        assert_eq!(falsify(&[point(Some(d))], None), vec![1]);
     }
 
     #[test]
@@ -253,6 +328,7 @@ mod tests {
                 low_kn: -4.0,
                 high_kn: 4.0,
                 curve: None,
+                discretisation: None,
             })
             .collect();
         let a = random_subset_counts(&pts, 3, 50, 7, None);

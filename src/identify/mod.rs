@@ -6,10 +6,12 @@
 //! measurement path: align, PIP, read the candidate columns, entropy selection, falsify.
 
 pub mod aligned;
+mod baselines;
 pub mod buffer;
 pub mod cells;
 pub mod coverage;
 pub mod detect;
+mod discretisation;
 pub mod entropy;
 pub mod envelope;
 pub mod falsify;
@@ -36,13 +38,11 @@ use crate::model::WheelPosition;
 use cells::Cells;
 pub use detect::{Detection, DetectionLimit};
 use entropy::{bin_into, binned_columns, greedy_joint_entropy};
-use falsify::{falsify, random_subset_counts, residual_minimisation, Point, Resolution};
+use falsify::{falsify, residual_minimisation, Point, Resolution};
 use prepare::Prepared;
 use ranges::{instance, population_ranges, ranges_of};
 pub use result::WheelRanges;
-use result::{
-    CandidatePoint, EntropyCurve, Falsification, InstanceParams, ParamRanges, RandomSubsets,
-};
+use result::{CandidatePoint, EntropyCurve, Falsification, InstanceParams, ParamRanges};
 use severity::{below_population_words, summarise};
 use std::path::PathBuf;
 use std::sync::Mutex;
@@ -119,6 +119,8 @@ pub struct Identifier {
     uncertainty: CombinedUncertainty,
     /// The table's hard bounds the detection step and the departure rule judge with.
     bounds: detect::TableBounds,
+    /// Each instance's discretisation share (empty: none; [`Identifier::discretisation`]).
+    discretisation: Vec<f32>,
     buffers: Mutex<buffer::HugeBuffer>,
     bin_buffers: Mutex<buffer::HugeBuffer>,
     /// The bank's departures table, loaded when a pass first needs its detection limit.
@@ -162,6 +164,7 @@ impl Identifier {
     ) -> Identifier {
         let uncertainty = CombinedUncertainty::new(&settings);
         let bounds = detect::TableBounds::of(&settings);
+        let discretisation = discretisation::shares(&settings, &params, &bank);
         Identifier {
             bank,
             params,
@@ -169,6 +172,7 @@ impl Identifier {
             settings,
             uncertainty,
             bounds,
+            discretisation,
             buffers: Mutex::new(buffer::HugeBuffer::default()),
             bin_buffers: Mutex::new(buffer::HugeBuffer::default()),
             departures: Mutex::new(None),
@@ -388,14 +392,41 @@ impl Identifier {
             low_kn: thresholds[i].0,
             high_kn: thresholds[i].1,
             curve: curves[i].as_ref(),
+            discretisation: None,
         };
-        let eip_points: Vec<Point> = selection.order.iter().map(|&i| point(i)).collect();
+        // The discretisation allowance's steps (identify::discretisation).
+        let shares = self.discretisation();
+        let (eip_steps, env_steps) = match shares {
+            Some(_) => self.allowance_steps(
+                &used,
+                &series,
+                &cands,
+                &selection.order,
+                &predictions,
+                &env_columns,
+                hw,
+            )?,
+            None => (Vec::new(), Vec::new()),
+        };
+        let eip_points: Vec<Point> = selection
+            .order
+            .iter()
+            .enumerate()
+            .map(|(j, &i)| Point {
+                discretisation: falsify::Discretisation::of(shares, &eip_steps, j),
+                ..point(i)
+            })
+            .collect();
         let mut method_points = eip_points.clone();
-        method_points.extend(envelope::as_points(
-            &env_reported,
-            &env_features,
-            &env_curves,
-        ));
+        method_points.extend(
+            envelope::as_points(&env_reported, &env_features, &env_curves)
+                .into_iter()
+                .enumerate()
+                .map(|(j, p)| Point {
+                    discretisation: falsify::Discretisation::of(shares, &env_steps, j / 2),
+                    ..p
+                }),
+        );
         let cms_idx = falsify(&method_points, self.resolution());
         lap("falsify", &mut timings);
         let (cms_idx, below_population) = self.departure_rule(cms_idx, &axes, &detection)?;
@@ -456,77 +487,10 @@ impl Identifier {
         let mut random_subsets = None;
         if extras.baselines {
             let all_points: Vec<Point> = (0..cands.len()).map(point).collect();
-            let counts = random_subset_counts(
-                &all_points,
-                m_final,
-                s.random_subsets,
-                s.seed,
-                self.resolution(),
-            );
-            let mut sorted = counts.clone();
-            sorted.sort_unstable();
-            let median = if sorted.is_empty() {
-                0.0
-            } else if sorted.len() % 2 == 1 {
-                sorted[sorted.len() / 2] as f64
-            } else {
-                (sorted[sorted.len() / 2 - 1] + sorted[sorted.len() / 2]) as f64 / 2.0
-            };
-            let mean = counts.iter().sum::<usize>() as f64 / counts.len().max(1) as f64;
-            random_subsets = Some(RandomSubsets {
-                subsets: counts.len(),
-                size: m_final,
-                cms_counts: counts,
-                mean,
-                median,
-                seed: s.seed,
-            });
-            falsifications.push(Falsification {
-                method: format!("random PIP subsets (mean of {})", s.random_subsets),
-                points: m_final,
-                cms_count: mean.round() as usize,
-                ranges: None,
-            });
-            // Equidistant points: m spread evenly over the series, equally spaced in each.
-            let mut eq: Vec<(usize, usize)> = Vec::new();
-            for (si, ser) in series.iter().enumerate() {
-                let share = m_final / series.len() + usize::from(si < m_final % series.len());
-                let len = ser.values_kn.len();
-                for j in 0..share {
-                    eq.push((si, ((j as f64 + 0.5) * len as f64 / share as f64) as usize));
-                }
-            }
-            let eq_cols: Vec<usize> = eq
-                .iter()
-                .map(|&(si, k)| self.bank.sample_index(used[si].1, k))
-                .collect();
-            let eq_pred = self.bank.read_columns(&eq_cols)?;
-            let eq_curves: Vec<ThresholdCurve> = eq
-                .iter()
-                .map(|&(si, k)| self.uncertainty.curve(series[si].values_kn[k], p_final))
-                .collect();
-            let eq_points: Vec<Point> = eq
-                .iter()
-                .zip(eq_pred.iter().zip(&eq_curves))
-                .map(|(&(si, k), (g, curve))| {
-                    let y = series[si].values_kn[k];
-                    let (lo, hi) = self.uncertainty.thresholds(y, p_final);
-                    Point {
-                        predictions: g,
-                        measured_kn: y,
-                        low_kn: lo,
-                        high_kn: hi,
-                        curve: Some(curve),
-                    }
-                })
-                .collect();
-            let eq_cms = falsify(&eq_points, self.resolution());
-            falsifications.push(Falsification {
-                method: "equidistant points".into(),
-                points: eq_points.len(),
-                cms_count: eq_cms.len(),
-                ranges: self.ranges(eq_cms.iter().map(|&k| k as usize)),
-            });
+            let (subsets, random) = self.random_subsets(&all_points, m_final);
+            random_subsets = Some(subsets);
+            falsifications.push(random);
+            falsifications.push(self.equidistant(&series, &used, m_final, p_final)?);
             lap("baselines", &mut timings);
         }
 

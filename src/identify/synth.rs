@@ -32,6 +32,9 @@ pub struct Truth {
     /// of either wheel for a good wheel).
     #[serde(default)]
     pub peak_contact_kn: f64,
+    /// How long the flat's wheel was off the rail, noise-free (ms; 0 when it kept contact).
+    #[serde(default)]
+    pub contact_loss_ms: f64,
     /// Seed of the perturbation.
     pub seed: u64,
     /// Per sensor: the systematic model error E_model drawn (fraction).
@@ -225,6 +228,9 @@ pub fn synthesize_pass(
             }
             None => resp.peak_contact_force_n[0].max(resp.peak_contact_force_n[1]),
         } / 1e3,
+        contact_loss_ms: flat.map_or(0.0, |f| {
+            resp.contact_loss_s[f.wheel().unwrap_or(cal.vehicle.flat_wheel).index()] * 1e3
+        }),
         seed,
         model_error: names.iter().cloned().zip(model_error).collect(),
         gain_error: names.iter().cloned().zip(gain_error).collect(),

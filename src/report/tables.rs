@@ -270,7 +270,9 @@ pub fn audit_table(c: &MeasuredCheck) -> String {
             p.residual_kn,
             format!(
                 "[{:+.2}, {:+.2}] ± {:.2}",
-                p.threshold_kn[0], p.threshold_kn[1], p.widening_kn
+                p.threshold_kn[0],
+                p.threshold_kn[1],
+                p.widening_kn + p.discretisation_kn
             ),
             p.outside_by_kn,
             match (p.outside_by_kn > 0.0, &p.envelope) {
@@ -318,7 +320,7 @@ pub fn audit_json(
 
 /// The panels of the audit figure, one per bank sensor: stored and re-simulated series, the
 /// measurement on the bank's time axis and, per comparison point, the admissible band of
-/// predictions `measured + threshold ∓ widening`.
+/// predictions `measured + threshold ∓ (widening + discretisation allowance)`.
 pub fn audit_panels<'a>(
     axes: &'a [SensorAxis],
     stored: &'a StoredInstance,
@@ -347,8 +349,8 @@ pub fn audit_panels<'a>(
                     time_s: p.time_s,
                     predicted_kn: p.predicted_kn,
                     band_kn: [
-                        p.measured_kn + p.threshold_kn[0] - p.widening_kn,
-                        p.measured_kn + p.threshold_kn[1] + p.widening_kn,
+                        p.measured_kn + p.threshold_kn[0] - p.widening_kn - p.discretisation_kn,
+                        p.measured_kn + p.threshold_kn[1] + p.widening_kn + p.discretisation_kn,
                     ],
                     falsifies: p.outside_by_kn > 0.0,
                 })
@@ -459,6 +461,7 @@ mod tests {
             residual_kn: 1.0,
             threshold_kn: [-2.0, 2.0],
             widening_kn: 0.25,
+            discretisation_kn: 0.0,
             outside_by_kn,
             envelope: None,
         }

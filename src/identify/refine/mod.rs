@@ -210,6 +210,10 @@ pub(super) struct Member {
     pub(super) half: [f64; 4],
     /// Predictions at the comparison points, in the order of [`Comparison::points`].
     pub(super) g: Vec<f32>,
+    /// Its steps between adjacent samples at the points ([`crate::identify::falsify::Discretisation`]).
+    pub(super) steps: Vec<f32>,
+    /// Its discretisation share ([`Identifier::discretisation_share`]).
+    pub(super) share: f32,
 }
 
 /// The simulator of the bank's own calibration, which [`refine`] needs.
@@ -263,7 +267,16 @@ pub fn refine(
         firsts.push(columns.len());
         columns.extend((a..=b).map(|k| bank.sample_index(axis, k)));
     }
+    // A sample point's step reaches one sample either side: those columns too.
+    let mut sides: Vec<usize> = Vec::new();
+    for &(axis, a, b, _) in &cmp.at[..method_points] {
+        let last = cmp.axes[axis].samples - 1;
+        columns.push(bank.sample_index(axis, a.saturating_sub(1)));
+        columns.push(bank.sample_index(axis, (b + 1).min(last)));
+        sides.push(columns.len() - 2);
+    }
     let stored = bank.read_columns(&columns)?;
+    let shares = identifier.discretisation();
     let mut seeds: Vec<Member> = id
         .cms
         .iter()
@@ -277,11 +290,29 @@ pub fn refine(
                 .zip(&firsts)
                 .map(|(&at, &first)| Comparison::value(at, |j| stored[first + j - at.1][k]))
                 .collect();
+            let steps = cmp.at[..method_points]
+                .iter()
+                .zip(firsts.iter().zip(&sides))
+                .map(|(&at, (&first, &side))| {
+                    let read = |j: usize| {
+                        if j + 1 == at.1 {
+                            stored[side][k]
+                        } else if j == at.2 + 1 {
+                            stored[side + 1][k]
+                        } else {
+                            stored[first + j - at.1][k]
+                        }
+                    };
+                    Comparison::step(at, at.1.saturating_sub(1), at.2 + 1, read)
+                })
+                .collect();
             Member {
                 x: [s.length_mm, s.depth_mm, s.curvature_mm, s.impact_position_m],
                 wheel: s.flat_wheel,
                 half,
                 g,
+                steps,
+                share: shares.map_or(0.0, |d| d[k]),
             }
         })
         .collect();
@@ -318,17 +349,16 @@ pub fn refine(
         let predictions = simulate_at(sim, &cmp, &flats)?;
         out.simulations += flats.len();
         let mut members: Vec<Member> = std::mem::take(&mut seeds);
-        members.extend(
-            flats
-                .into_iter()
-                .zip(predictions)
-                .map(|((_, x, wheel), g)| Member {
-                    x,
-                    wheel,
-                    half: [0.0; 4],
-                    g,
-                }),
-        );
+        members.extend(flats.into_iter().zip(predictions).map(
+            |((_, x, wheel), (g, steps, peak_kn))| Member {
+                x,
+                wheel,
+                half: [0.0; 4],
+                g,
+                steps,
+                share: identifier.discretisation_share(peak_kn),
+            },
+        ));
         // The last round with the whole record: the simulated flats only (a bank seed has
         // its method points, not its record), judged at every sample.
         let final_whole = settings.whole_record.is_some() && round + 1 == settings.rounds;
@@ -353,7 +383,21 @@ pub fn refine(
                 }
             })
             .collect();
-        let points = cmp.points(&columns, range);
+        let steps: Vec<Vec<f32>> = (0..cmp.at.len())
+            .map(|p| {
+                if range.contains(&p) {
+                    members
+                        .iter()
+                        .map(|m| m.steps.get(p).copied().unwrap_or(0.0))
+                        .collect()
+                } else {
+                    Vec::new()
+                }
+            })
+            .collect();
+        let shares: Vec<f32> = members.iter().map(|m| m.share).collect();
+        let any = shares.iter().any(|&s| s > 0.0);
+        let points = cmp.points(&columns, range, &steps, any.then_some(shares.as_slice()));
         let alive = falsify(
             &points,
             (kappa > 0.0).then_some(Resolution {

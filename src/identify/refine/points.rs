@@ -3,7 +3,7 @@
 
 use super::{Member, WholeRecord};
 use crate::bank::schema::SensorAxis;
-use crate::identify::falsify::Point;
+use crate::identify::falsify::{Discretisation, Point};
 use crate::identify::result::Identification;
 use crate::identify::{Identifier, IdentifyError, ThresholdCurve};
 use crate::model::{batch_key, Flat, Record, Simulator, WheelPosition, LANES};
@@ -141,10 +141,14 @@ impl Comparison {
     }
 
     /// The falsification points `range` of the comparison over `columns` (one per point).
+    /// `steps` and `shares` give each member's discretisation allowance at each point
+    /// ([`Discretisation`]; `shares` None: none).
     pub(super) fn points<'a>(
         &'a self,
         columns: &'a [Vec<f32>],
         range: std::ops::Range<usize>,
+        steps: &'a [Vec<f32>],
+        shares: Option<&'a [f32]>,
     ) -> Vec<Point<'a>> {
         range
             .map(|p| Point {
@@ -153,8 +157,22 @@ impl Comparison {
                 low_kn: self.thresholds[p].0,
                 high_kn: self.thresholds[p].1,
                 curve: Some(&self.curves[p]),
+                discretisation: Discretisation::of(shares, steps, p),
             })
             .collect()
+    }
+
+    /// The largest step between adjacent samples `from..=to` of a series, as the point `at`
+    /// uses it: a sample point's reaches one sample either side, a window's stays inside it
+    /// (the bank reads the same columns, [`crate::identify::falsify::steps`]).
+    pub(super) fn step(at: At, from: usize, to: usize, series: impl Fn(usize) -> f32) -> f32 {
+        let (a, b) = match at.3 {
+            Read::Sample => (from, to),
+            _ => (at.1, at.2),
+        };
+        (a..b)
+            .map(|j| (series(j + 1) - series(j)).abs())
+            .fold(0.0, f32::max)
     }
 
     /// A window's value: the sample, the extreme over the window, or the smoothed sample.
@@ -172,17 +190,21 @@ impl Comparison {
     }
 }
 
+/// One simulated flat at the comparison points: values, steps ([`Comparison::step`]) and the
+/// peak wheel–rail force of its wheel (kN).
+pub(super) type AtPoints = (Vec<f32>, Vec<f32>, f64);
+
 /// Simulates `flats` (in lockstep batches sorted by their first strike, on the rayon pool)
 /// and returns each one's values at the comparison points, in the order given.
 pub(super) fn simulate_at(
     sim: &Simulator,
     cmp: &Comparison,
     flats: &[(Flat, [f64; 4], WheelPosition)],
-) -> Result<Vec<Vec<f32>>, IdentifyError> {
+) -> Result<Vec<AtPoints>, IdentifyError> {
     let mut order: Vec<usize> = (0..flats.len()).collect();
     let keys: Vec<f64> = flats.iter().map(|f| batch_key(sim, Some(&f.0))).collect();
     order.sort_by(|&a, &b| keys[a].total_cmp(&keys[b]).then(a.cmp(&b)));
-    let done: Vec<Vec<(usize, Vec<f32>)>> = order
+    let done: Vec<Vec<(usize, AtPoints)>> = order
         .par_chunks(LANES)
         .map_init(
             || sim.lane_workspace::<LANES>(),
@@ -199,22 +221,24 @@ pub(super) fn simulate_at(
                                 "refinement: simulating a flat failed: {e}"
                             ))
                         })?;
-                        let g = cmp
-                            .at
-                            .iter()
-                            .map(|&at| {
-                                let a = &cmp.axes[at.0];
-                                let w = resp.window(at.0, a.first_sample, a.samples);
-                                Comparison::value(at, |j| (w[j] / 1e3) as f32)
-                            })
-                            .collect();
-                        Ok((k, g))
+                        let mut g = Vec::with_capacity(cmp.at.len());
+                        let mut steps = Vec::with_capacity(cmp.at.len());
+                        for &at in &cmp.at {
+                            let a = &cmp.axes[at.0];
+                            let w = resp.window(at.0, a.first_sample, a.samples);
+                            let read = |j: usize| (w[j] / 1e3) as f32;
+                            g.push(Comparison::value(at, read));
+                            let to = (at.2 + 1).min(a.samples - 1);
+                            steps.push(Comparison::step(at, at.1.saturating_sub(1), to, read));
+                        }
+                        let peak_kn = resp.peak_contact_force_n[flats[k].2.index()] / 1e3;
+                        Ok((k, (g, steps, peak_kn)))
                     })
                     .collect::<Result<Vec<_>, IdentifyError>>()
             },
         )
         .collect::<Result<_, _>>()?;
-    let mut out = vec![Vec::new(); flats.len()];
+    let mut out = vec![(Vec::new(), Vec::new(), 0.0); flats.len()];
     for (k, g) in done.into_iter().flatten() {
         out[k] = g;
     }
@@ -286,13 +310,15 @@ mod tests {
                     .iter()
                     .map(|&y| (y * (0.6 + 0.8 * uniform(&mut state))) as f32)
                     .collect(),
+                steps: Vec::new(),
+                share: 0.0,
             })
             .collect();
         let score = misfit(&cmp, &members);
         let columns: Vec<Vec<f32>> = (0..3)
             .map(|q| members.iter().map(|m| m.g[q]).collect())
             .collect();
-        let kept = falsify(&cmp.points(&columns, 0..3), None);
+        let kept = falsify(&cmp.points(&columns, 0..3, &[], None), None);
         let witnesses: Vec<u32> = (0..members.len() as u32)
             .filter(|&k| score[k as usize] <= 0.0)
             .collect();

@@ -67,12 +67,15 @@ pub(super) fn witnesses(
         let predictions = simulate_at(sim, cmp, &flats)?;
         out.simulations += flats.len();
         let first = all.len();
-        for ((_, x, wheel), g) in flats.into_iter().zip(predictions) {
+        for ((_, x, wheel), (g, steps, _)) in flats.into_iter().zip(predictions) {
+            // (Witnesses are judged at κ = 0 by their misfit, with no discretisation share.)
             all.push(Member {
                 x,
                 wheel,
                 half: [0.0; 4],
                 g,
+                steps,
+                share: 0.0,
             });
         }
         score.extend(misfit(cmp, &all[first..]));

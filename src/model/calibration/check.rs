@@ -428,6 +428,18 @@ impl Calibration {
             0.0,
             1.0,
         )?;
+        within(
+            "identification.discretisation_fraction",
+            id.discretisation_fraction,
+            0.0,
+            1.0,
+        )?;
+        within(
+            "identification.discretisation_dynamic_ratio",
+            id.discretisation_dynamic_ratio,
+            0.0,
+            100.0,
+        )?;
         for (i, u) in id.uncertainty.iter().enumerate() {
             finite(&format!("identification.uncertainty[{i}].min"), u.min)?;
             finite(&format!("identification.uncertainty[{i}].max"), u.max)?;

@@ -38,6 +38,8 @@ impl Default for IdentificationParams {
             detection_allowance_fraction: 0.01,
             falsify_at_departures: true,
             departure_model_form_fraction: 0.25,
+            discretisation_fraction: super::DISCRETISATION_FRACTION,
+            discretisation_dynamic_ratio: super::DISCRETISATION_DYNAMIC_RATIO,
             uncertainty: vec![
                 src(Model, "train system", Relative, -0.15, 0.05),
                 src(Model, "finite element model", Relative, -0.08, 0.05),

@@ -161,6 +161,26 @@ pub struct IntegrationParams {
     pub fine_after_strike_s: f64,
 }
 
+/// [`IdentificationParams::discretisation_fraction`]'s default (a calibration written before
+/// it existed reads it).
+fn default_discretisation_fraction() -> f64 {
+    DISCRETISATION_FRACTION
+}
+
+/// [`IdentificationParams::discretisation_dynamic_ratio`]'s default.
+fn default_discretisation_dynamic_ratio() -> f64 {
+    DISCRETISATION_DYNAMIC_RATIO
+}
+
+/// The default of [`IdentificationParams::discretisation_dynamic_ratio`]: 95 % of the flats
+/// that lose contact reach 1.92 times the static wheel load on the bank's mesh (600 flats).
+pub const DISCRETISATION_DYNAMIC_RATIO: f64 = 1.9;
+
+/// The default of [`IdentificationParams::discretisation_fraction`]: the 90th percentile of
+/// |bank − converged| over the bank's step at the samples of flats that lose contact
+/// (0.46 over 600 flats, `examples/discretisation.rs`), rounded up.
+pub const DISCRETISATION_FRACTION: f64 = 0.5;
+
 /// Parameter ranges of the model population (docs/model.md §5, paper Table 1).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -288,6 +308,17 @@ pub struct IdentificationParams {
     /// mesh's error at impact peaks against a converged one, and the sampling phase of a short
     /// spike), in the departure rule.
     pub departure_model_form_fraction: f64,
+    /// The bank mesh's discretisation error around a landing impact, as a share of the
+    /// prediction's largest step between adjacent samples at a comparison point, added to
+    /// that point's thresholds for that prediction (0.5: the landing may fall half a sample
+    /// from the bank's; measured against the converged reference: docs/identification.md,
+    /// "Discretisation error"). Absent from a calibration file: the default.
+    #[serde(default = "default_discretisation_fraction")]
+    pub discretisation_fraction: f64,
+    /// ... for the instances whose peak wheel–rail force reaches this many times the static
+    /// wheel load (flats that lose contact and land; the others keep the table's mesh term).
+    #[serde(default = "default_discretisation_dynamic_ratio")]
+    pub discretisation_dynamic_ratio: f64,
     /// The uncertainty table (paper Table 2).
     pub uncertainty: Vec<UncertaintySource>,
 }

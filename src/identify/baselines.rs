@@ -1,0 +1,97 @@
+//! The paper's baselines beside the entropy-selected points (§3): random PIP subsets of the
+//! same size, equidistant points (with the thresholds and cell rule of the method).
+
+use super::falsify::{falsify, random_subset_counts, Point};
+use super::result::{Falsification, MeasuredSeries, RandomSubsets};
+use super::uncertainty::ThresholdCurve;
+use super::{Identifier, IdentifyError};
+
+impl Identifier {
+    /// CMS sizes of the settings' random subsets of `m` points drawn from `all_points`: the
+    /// summary and its row of the comparison table.
+    pub(super) fn random_subsets(
+        &self,
+        all_points: &[Point],
+        m: usize,
+    ) -> (RandomSubsets, Falsification) {
+        let s = &self.settings;
+        let counts =
+            random_subset_counts(all_points, m, s.random_subsets, s.seed, self.resolution());
+        let mut sorted = counts.clone();
+        sorted.sort_unstable();
+        let median = if sorted.is_empty() {
+            0.0
+        } else if sorted.len() % 2 == 1 {
+            sorted[sorted.len() / 2] as f64
+        } else {
+            (sorted[sorted.len() / 2 - 1] + sorted[sorted.len() / 2]) as f64 / 2.0
+        };
+        let mean = counts.iter().sum::<usize>() as f64 / counts.len().max(1) as f64;
+        let row = Falsification {
+            method: format!("random PIP subsets (mean of {})", s.random_subsets),
+            points: m,
+            cms_count: mean.round() as usize,
+            ranges: None,
+        };
+        let summary = RandomSubsets {
+            subsets: counts.len(),
+            size: m,
+            cms_counts: counts,
+            mean,
+            median,
+            seed: s.seed,
+        };
+        (summary, row)
+    }
+
+    /// Falsification at `m` points spread evenly over the series (bank axes `used`), equally
+    /// spaced in each, with the thresholds at per-point probability `p`.
+    pub(super) fn equidistant(
+        &self,
+        series: &[MeasuredSeries],
+        used: &[(usize, usize)],
+        m: usize,
+        p: f64,
+    ) -> Result<Falsification, IdentifyError> {
+        let mut eq: Vec<(usize, usize)> = Vec::new();
+        for (si, ser) in series.iter().enumerate() {
+            let share = m / series.len() + usize::from(si < m % series.len());
+            let len = ser.values_kn.len();
+            for j in 0..share {
+                eq.push((si, ((j as f64 + 0.5) * len as f64 / share as f64) as usize));
+            }
+        }
+        let eq_cols: Vec<usize> = eq
+            .iter()
+            .map(|&(si, k)| self.bank.sample_index(used[si].1, k))
+            .collect();
+        let eq_pred = self.bank.read_columns(&eq_cols)?;
+        let eq_curves: Vec<ThresholdCurve> = eq
+            .iter()
+            .map(|&(si, k)| self.uncertainty.curve(series[si].values_kn[k], p))
+            .collect();
+        let eq_points: Vec<Point> = eq
+            .iter()
+            .zip(eq_pred.iter().zip(&eq_curves))
+            .map(|(&(si, k), (g, curve))| {
+                let y = series[si].values_kn[k];
+                let (lo, hi) = self.uncertainty.thresholds(y, p);
+                Point {
+                    predictions: g,
+                    measured_kn: y,
+                    low_kn: lo,
+                    high_kn: hi,
+                    curve: Some(curve),
+                    discretisation: None,
+                }
+            })
+            .collect();
+        let eq_cms = falsify(&eq_points, self.resolution());
+        Ok(Falsification {
+            method: "equidistant points".into(),
+            points: eq_points.len(),
+            cms_count: eq_cms.len(),
+            ranges: self.ranges(eq_cms.iter().map(|&k| k as usize)),
+        })
+    }
+}
