@@ -134,6 +134,23 @@ fn calibration_round_trips_and_bad_values_name_file_key_and_value() {
     );
 }
 
+/// Issue 32: the converged reference is reachable from the command line, as a calibration
+/// file any command takes (`simulate`, `synth`, `bank generate`).
+#[test]
+fn the_converged_reference_is_a_calibration_any_command_takes() {
+    let dir = tempfile::tempdir().unwrap();
+    let cal = dir.path().join("converged.toml");
+    wheelflat()
+        .args(["calibration", "--profile", "narrow", "--converged", "--out"])
+        .arg(&cal)
+        .assert()
+        .success();
+    let text = read(&cal);
+    assert!(text.contains("elements_per_bay = 40"), "{text}");
+    assert!(text.contains("coarse_steps_per_sample = 20"), "{text}");
+    assert!(text.contains("window_samples = 600"), "the profile is kept");
+}
+
 #[test]
 fn demo_runs_the_whole_main_job_and_reuses_its_bank() {
     let dir = tempfile::tempdir().unwrap();

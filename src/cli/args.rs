@@ -32,6 +32,11 @@ pub(super) enum Command {
         /// `train` (either wheel, X_p over one wheel revolution; what `train` needs).
         #[arg(long, value_enum, default_value_t = Profile::Paper)]
         profile: Profile,
+        /// The profile at the converged reference's mesh and step (40 rail elements per bay,
+        /// 20 µs / 2 µs): for simulating measurements that carry the bank mesh's
+        /// discretisation error, as a field record does (about 200× slower than the bank's).
+        #[arg(long, conflicts_with = "noise_from")]
+        converged: bool,
         /// Measure the site's noise from these passes (good wheels or flats: the strikes are
         /// left out) and widen the uncertainty table's noise entry to it when it is above the
         /// table; the bank's calibration is the starting point.

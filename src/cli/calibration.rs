@@ -7,12 +7,18 @@ use crate::model::Calibration;
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
 
-/// Prints the profile's calibration, or writes it to `out`.
-pub(super) fn run(out: Option<&Path>, profile: Profile) -> Result<()> {
-    let text = match profile {
+/// Prints the profile's calibration (at the converged reference's mesh and step with
+/// `converged`), or writes it to `out`.
+pub(super) fn run(out: Option<&Path>, profile: Profile, converged: bool) -> Result<()> {
+    let cal = match profile {
         Profile::Paper => Calibration::default(),
         Profile::Train => Calibration::train_profile(),
         Profile::Narrow => Calibration::narrow_profile(),
+    };
+    let text = if converged {
+        cal.converged_reference()
+    } else {
+        cal
     }
     .to_toml_string();
     match out {

@@ -48,13 +48,14 @@ pub fn main() -> ExitCode {
         Command::Calibration {
             out,
             profile,
+            converged,
             noise_from,
             bank,
         } => match bank {
             Some(bank) if !noise_from.is_empty() => {
                 calibration::site_noise(out.as_deref(), &bank, &noise_from)
             }
-            _ => calibration::run(out.as_deref(), profile),
+            _ => calibration::run(out.as_deref(), profile, converged),
         },
         Command::Simulate(args) => simulate::run(&args),
         Command::Bank { command } => match command {
