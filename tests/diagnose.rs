@@ -423,7 +423,7 @@ fn a_speed_line_beyond_the_bank_is_diagnosed_from_the_record_and_identify_still_
 /// (and names no effect there).
 /// (Before, it answered "no effect in the library explains the disagreement".)
 #[test]
-#[ignore = "acceptance: ten diagnoses, ~3 min on 2 cores"]
+#[ignore = "acceptance: ten diagnoses, 4–5 min on 2 cores"]
 fn noise_above_the_table_is_named_with_its_sigma_and_rho() {
     let (dir, cal) = small_bank();
     let id = Identifier::new(Bank::open(&dir).unwrap(), cal.identification.clone()).unwrap();
