@@ -428,18 +428,10 @@ impl Calibration {
             0.0,
             1.0,
         )?;
-        within(
-            "identification.discretisation_fraction",
-            id.discretisation_fraction,
-            0.0,
-            1.0,
-        )?;
-        within(
-            "identification.discretisation_dynamic_ratio",
-            id.discretisation_dynamic_ratio,
-            0.0,
-            100.0,
-        )?;
+        let d = id.discretisation_fraction;
+        within("identification.discretisation_fraction", d, 0.0, 1.0)?;
+        let r = id.discretisation_dynamic_ratio;
+        within("identification.discretisation_dynamic_ratio", r, 0.0, 100.0)?;
         for (i, u) in id.uncertainty.iter().enumerate() {
             finite(&format!("identification.uncertainty[{i}].min"), u.min)?;
             finite(&format!("identification.uncertainty[{i}].max"), u.max)?;
