@@ -14,8 +14,7 @@
 mod study;
 
 use rayon::prelude::*;
-use std::path::{Path, PathBuf};
-use wheelflat::bank::Bank;
+use std::path::PathBuf;
 use wheelflat::identify::coverage::{self, judge, method_line, severity_class, Judged};
 use wheelflat::identify::refine::{refine, RefineSettings};
 use wheelflat::identify::synth::{synthesize, Truth};
@@ -27,18 +26,12 @@ fn main() {
     if args.len() < 5 {
         panic!("usage: converged_coverage BANK CASES SEED CACHE [same] [refine]");
     }
-    let bank = Bank::open(Path::new(&args[1])).expect("bank");
+    let (bank, cal) = study::open_bank(&args[1]);
     let cases: usize = args[2].parse().expect("CASES");
     let seed: u64 = args[3].parse().expect("SEED");
     let cache = PathBuf::from(&args[4]);
     let same = args.iter().skip(5).any(|a| a == "same");
     let with_refine = args.iter().skip(5).any(|a| a == "refine");
-    let cal = bank
-        .metadata()
-        .calibration
-        .clone()
-        .check()
-        .expect("calibration");
     let model = if same {
         cal.clone()
     } else {

@@ -361,11 +361,9 @@ pub fn check_against(
     let share = identifier.discretisation().map_or(0.0, |d| d[i] as f64);
     let allowance = |axis: usize, a: usize, b: usize| {
         let f = &stored.forces_kn[axis];
-        let b = b.min(f.len() - 1);
         share
-            * (a..b)
-                .map(|j| (f[j + 1] - f[j]).abs())
-                .fold(0.0f32, f32::max) as f64
+            * crate::identify::falsify::largest_step(f[a..=b.min(f.len() - 1)].iter().copied())
+                as f64
     };
     let mut points = Vec::with_capacity(id.eip.len() + id.envelope.len());
     // The neighbours' predictions at the EIP give the instance's own widening.

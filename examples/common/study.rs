@@ -36,13 +36,7 @@ impl Study {
                 args[0]
             );
         }
-        let bank = Bank::open(Path::new(&args[1])).expect("bank");
-        let cal = bank
-            .metadata()
-            .calibration
-            .clone()
-            .check()
-            .expect("calibration");
+        let (bank, cal) = open_bank(&args[1]);
         let finer = args.get(4).is_some_and(|s| s == "finer");
         let converged = args.get(4).is_some_and(|s| s == "converged");
         Study {
@@ -127,6 +121,18 @@ impl WholeCase {
             truth,
         }
     }
+}
+
+/// The bank in `dir` and its stored calibration, checked.
+pub fn open_bank(dir: &str) -> (Bank, CheckedCalibration) {
+    let bank = Bank::open(Path::new(dir)).expect("bank");
+    let cal = bank
+        .metadata()
+        .calibration
+        .clone()
+        .check()
+        .expect("calibration");
+    (bank, cal)
 }
 
 /// `flat` simulated by `sim`: each bank axis's window in kN, rounded to f32 as the bank

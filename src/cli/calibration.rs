@@ -21,6 +21,11 @@ pub(super) fn run(out: Option<&Path>, profile: Profile, converged: bool) -> Resu
         cal
     }
     .to_toml_string();
+    emit(out, &text)
+}
+
+/// Writes `text` to `out`, or prints it.
+fn emit(out: Option<&Path>, text: &str) -> Result<()> {
     match out {
         Some(p) => write_file(p, text.as_bytes()),
         None => {
@@ -72,12 +77,5 @@ pub(super) fn site_noise(out: Option<&Path>, bank: &Path, passes: &[PathBuf]) ->
         ),
     };
     eprint!("{}", header.replace("# ", ""));
-    let text = format!("{header}{}", cal.to_toml_string());
-    match out {
-        Some(p) => write_file(p, text.as_bytes()),
-        None => {
-            print!("{text}");
-            Ok(())
-        }
-    }
+    emit(out, &format!("{header}{}", cal.to_toml_string()))
 }

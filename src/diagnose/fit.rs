@@ -41,19 +41,17 @@ impl NoiseModel {
 
     /// Moments of the uniform sources of the table.
     pub fn from_settings(id: &IdentificationParams) -> NoiseModel {
-        let var = |u: &crate::model::calibration::UncertaintySource| (u.max - u.min).powi(2) / 12.0;
-        let mean = |u: &crate::model::calibration::UncertaintySource| 0.5 * (u.max + u.min);
         let (mut noise_var, mut model_mean, mut meas_mean, mut rel_var) = (0.0, 0.0, 0.0, 0.0);
         for u in &id.uncertainty {
             match (u.kind, u.group) {
-                (UncertaintyKind::AbsoluteKn, _) => noise_var += var(u),
+                (UncertaintyKind::AbsoluteKn, _) => noise_var += u.variance(),
                 (UncertaintyKind::Relative, UncertaintyGroup::Model) => {
-                    model_mean += mean(u);
-                    rel_var += var(u);
+                    model_mean += u.mean();
+                    rel_var += u.variance();
                 }
                 (UncertaintyKind::Relative, UncertaintyGroup::Measurement) => {
-                    meas_mean += mean(u);
-                    rel_var += var(u);
+                    meas_mean += u.mean();
+                    rel_var += u.variance();
                 }
             }
         }

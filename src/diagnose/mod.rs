@@ -567,7 +567,8 @@ pub fn diagnose(
     naming.second_flat_l0_mm = named_second_flat_l0(&naming, cal.vehicle.wheel_radius_m);
     // Noise above the table is a finding of its own when no effect is named: the site should
     // hear which table entry to change, not that nothing explains the record.
-    if naming.named_effects().is_empty() {
+    let named = naming.named_effects();
+    if named.is_empty() {
         let table = &identifier.settings().uncertainty;
         if let Some(f) = estimate
             .sigma_estimated_kn
@@ -582,7 +583,6 @@ pub fn diagnose(
         }
     }
     lap("name", &mut timings);
-    let named = naming.named_effects();
     if let (Some(flat), Some(dir)) = (naming.named_flat(), &opts.local_bank_dir) {
         let mut doc = cal.document().clone();
         doc.effects.extend(named.iter().cloned());

@@ -75,24 +75,23 @@ impl NoiseAboveTable {
         table: &[crate::model::calibration::UncertaintySource],
     ) -> Option<NoiseAboveTable> {
         use crate::model::calibration::{UncertaintyGroup, UncertaintyKind};
-        let var = |u: &crate::model::calibration::UncertaintySource| (u.max - u.min).powi(2) / 12.0;
         let absolute: Vec<&crate::model::calibration::UncertaintySource> = table
             .iter()
             .filter(|u| u.kind == UncertaintyKind::AbsoluteKn)
             .collect();
-        let sigma_table = absolute.iter().map(|u| var(u)).sum::<f64>().sqrt();
+        let sigma_table = absolute.iter().map(|u| u.variance()).sum::<f64>().sqrt();
         if sigma_kn.is_nan() || sigma_kn < ABOVE_TABLE * sigma_table {
             return None;
         }
         let entry = absolute
             .iter()
             .filter(|u| u.group == UncertaintyGroup::Measurement)
-            .max_by(|a, b| var(a).total_cmp(&var(b)))?;
+            .max_by(|a, b| a.variance().total_cmp(&b.variance()))?;
+        let centre = entry.mean();
         // The table's sources are uniform, the site's noise is not bounded (coloured noise is
         // near Gaussian): the entry is made to bound ±[`BOUND_SD`]·σ̂ about its centre, the
         // level beyond which [`estimate`] calls a value a transient, not noise.
         let width = 2.0 * BOUND_SD * sigma_kn;
-        let centre = 0.5 * (entry.min + entry.max);
         Some(NoiseAboveTable {
             sigma_kn,
             rho,

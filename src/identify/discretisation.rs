@@ -30,14 +30,7 @@ impl Identifier {
     /// The discretisation share of a flat whose wheel's peak wheel–rail force is `peak_kn`
     /// (a refinement's simulated flats; [`Identifier::discretisation`]).
     pub fn discretisation_share(&self, peak_kn: f64) -> f32 {
-        let load_kn = self
-            .bank
-            .metadata()
-            .calibration
-            .vehicle
-            .static_wheel_load_n()
-            / 1e3;
-        share(&self.settings, load_kn, peak_kn)
+        share(&self.settings, static_load_kn(&self.bank), peak_kn)
     }
 
     /// Every instance's steps at the EIP points `order` (indices into the candidates `cands`,
@@ -76,17 +69,28 @@ impl Identifier {
     }
 }
 
-/// [`Identifier::discretisation`]'s shares, one per instance (empty when none are allowed).
+/// [`Identifier::discretisation`]'s shares, one per instance (empty when none are allowed or
+/// no instance lands).
 pub(super) fn shares(s: &IdentificationParams, params: &Parameters, bank: &Bank) -> Vec<f32> {
     if s.discretisation_fraction <= 0.0 {
         return Vec::new();
     }
-    let load_kn = bank.metadata().calibration.vehicle.static_wheel_load_n() / 1e3;
-    params
+    let load_kn = static_load_kn(bank);
+    let shares: Vec<f32> = params
         .peak_contact_kn
         .iter()
         .map(|&peak| share(s, load_kn, peak))
-        .collect()
+        .collect();
+    // A bank none of whose flats lands needs no allowance (nor its columns read).
+    if shares.iter().all(|&x| x == 0.0) {
+        return Vec::new();
+    }
+    shares
+}
+
+/// The static wheel load of the bank's vehicle (kN).
+fn static_load_kn(bank: &Bank) -> f64 {
+    bank.metadata().calibration.vehicle.static_wheel_load_n() / 1e3
 }
 
 /// The discretisation share of a flat with peak wheel–rail force `peak_kn` on a wheel whose

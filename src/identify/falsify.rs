@@ -54,6 +54,20 @@ impl<'a> Discretisation<'a> {
     }
 }
 
+/// The largest step between adjacent values of one series' consecutive samples (0 for fewer
+/// than two): one instance's step, as [`steps`] gives it for every instance at once.
+pub fn largest_step(values: impl IntoIterator<Item = f32>) -> f32 {
+    let mut it = values.into_iter();
+    let Some(mut prev) = it.next() else {
+        return 0.0;
+    };
+    it.fold(0.0f32, |m, v| {
+        let d = (v - prev).abs();
+        prev = v;
+        m.max(d)
+    })
+}
+
 /// Each instance's largest step between adjacent columns of `columns` (consecutive samples).
 pub fn steps(columns: &[&[f32]]) -> Vec<f32> {
     let n = columns.first().map_or(0, |c| c.len());
@@ -297,6 +311,8 @@ mod tests {
         let prev = [11.0f32, 8.0, 4.0];
         let steps = steps(&[&prev, &g]);
         assert_eq!(steps, vec![1.0, 4.0, 8.0]);
+        assert!((largest_step([11.0, 12.0, 8.0, 8.5]) - 4.0).abs() < 1e-6);
+        assert!(largest_step([3.0]).abs() < 1e-6, "one value has no step");
         let shares = [0.5f32, 0.5, 0.0];
         let point = |d| Point {
             predictions: &g,

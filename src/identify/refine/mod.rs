@@ -42,7 +42,7 @@ mod local;
 mod points;
 mod witness;
 
-use super::falsify::{falsify, Resolution};
+use super::falsify::{falsify, largest_step, Resolution};
 use super::result::{Identification, ParamRanges};
 use super::{Identifier, IdentifyError};
 use crate::model::{Simulator, WheelPosition};
@@ -260,23 +260,22 @@ pub fn refine(
         cmp
     };
 
-    // Seeds: the bank's survivors with their cells and their stored predictions.
+    // Seeds: the bank's survivors with their cells and their stored predictions. With a
+    // discretisation allowance each point is read over the samples its step spans (a sample
+    // point's neighbours too).
+    let shares = identifier.discretisation();
     let mut columns: Vec<usize> = Vec::new();
-    let mut firsts: Vec<usize> = Vec::new(); // each point's first column in `columns`
-    for &(axis, a, b, _) in &cmp.at[..method_points] {
-        firsts.push(columns.len());
-        columns.extend((a..=b).map(|k| bank.sample_index(axis, k)));
-    }
-    // A sample point's step reaches one sample either side: those columns too.
-    let mut sides: Vec<usize> = Vec::new();
-    for &(axis, a, b, _) in &cmp.at[..method_points] {
-        let last = cmp.axes[axis].samples - 1;
-        columns.push(bank.sample_index(axis, a.saturating_sub(1)));
-        columns.push(bank.sample_index(axis, (b + 1).min(last)));
-        sides.push(columns.len() - 2);
+    let mut spans: Vec<(usize, usize, usize)> = Vec::new(); // (first column, first, last sample)
+    for &at in &cmp.at[..method_points] {
+        let (lo, hi) = if shares.is_some() {
+            Comparison::step_span(at, cmp.axes[at.0].samples - 1)
+        } else {
+            (at.1, at.2)
+        };
+        spans.push((columns.len(), lo, hi));
+        columns.extend((lo..=hi).map(|k| bank.sample_index(at.0, k)));
     }
     let stored = bank.read_columns(&columns)?;
-    let shares = identifier.discretisation();
     let mut seeds: Vec<Member> = id
         .cms
         .iter()
@@ -285,27 +284,14 @@ pub fn refine(
             let half = identifier
                 .resolution()
                 .map_or([0.0; 4], |r| r.cells.half_extent(k));
-            let g = cmp.at[..method_points]
-                .iter()
-                .zip(&firsts)
-                .map(|(&at, &first)| Comparison::value(at, |j| stored[first + j - at.1][k]))
-                .collect();
-            let steps = cmp.at[..method_points]
-                .iter()
-                .zip(firsts.iter().zip(&sides))
-                .map(|(&at, (&first, &side))| {
-                    let read = |j: usize| {
-                        if j + 1 == at.1 {
-                            stored[side][k]
-                        } else if j == at.2 + 1 {
-                            stored[side + 1][k]
-                        } else {
-                            stored[first + j - at.1][k]
-                        }
-                    };
-                    Comparison::step(at, at.1.saturating_sub(1), at.2 + 1, read)
-                })
-                .collect();
+            let (mut g, mut steps) = (Vec::new(), Vec::new());
+            for (&at, &(first, lo, hi)) in cmp.at[..method_points].iter().zip(&spans) {
+                let read = |j: usize| stored[first + j - lo][k];
+                g.push(Comparison::value(at, read));
+                if shares.is_some() {
+                    steps.push(largest_step((lo..=hi).map(read)));
+                }
+            }
             Member {
                 x: [s.length_mm, s.depth_mm, s.curvature_mm, s.impact_position_m],
                 wheel: s.flat_wheel,

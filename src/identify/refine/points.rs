@@ -3,7 +3,7 @@
 
 use super::{Member, WholeRecord};
 use crate::bank::schema::SensorAxis;
-use crate::identify::falsify::{Discretisation, Point};
+use crate::identify::falsify::{largest_step, Discretisation, Point};
 use crate::identify::result::Identification;
 use crate::identify::{Identifier, IdentifyError, ThresholdCurve};
 use crate::model::{batch_key, Flat, Record, Simulator, WheelPosition, LANES};
@@ -162,17 +162,14 @@ impl Comparison {
             .collect()
     }
 
-    /// The largest step between adjacent samples `from..=to` of a series, as the point `at`
-    /// uses it: a sample point's reaches one sample either side, a window's stays inside it
-    /// (the bank reads the same columns, [`crate::identify::falsify::steps`]).
-    pub(super) fn step(at: At, from: usize, to: usize, series: impl Fn(usize) -> f32) -> f32 {
-        let (a, b) = match at.3 {
-            Read::Sample => (from, to),
+    /// The samples `(first, last)` a point's discretisation step spans on a series whose last
+    /// sample is `last`: a sample point's reaches one sample either side, a window's stays
+    /// inside it (as identification reads the bank, [`crate::identify::falsify::steps`]).
+    pub(super) fn step_span(at: At, last: usize) -> (usize, usize) {
+        match at.3 {
+            Read::Sample => (at.1.saturating_sub(1), (at.2 + 1).min(last)),
             _ => (at.1, at.2),
-        };
-        (a..b)
-            .map(|j| (series(j + 1) - series(j)).abs())
-            .fold(0.0, f32::max)
+        }
     }
 
     /// A window's value: the sample, the extreme over the window, or the smoothed sample.
@@ -190,7 +187,7 @@ impl Comparison {
     }
 }
 
-/// One simulated flat at the comparison points: values, steps ([`Comparison::step`]) and the
+/// One simulated flat at the comparison points: values, steps ([`Comparison::step_span`]) and the
 /// peak wheel–rail force of its wheel (kN).
 pub(super) type AtPoints = (Vec<f32>, Vec<f32>, f64);
 
@@ -228,8 +225,8 @@ pub(super) fn simulate_at(
                             let w = resp.window(at.0, a.first_sample, a.samples);
                             let read = |j: usize| (w[j] / 1e3) as f32;
                             g.push(Comparison::value(at, read));
-                            let to = (at.2 + 1).min(a.samples - 1);
-                            steps.push(Comparison::step(at, at.1.saturating_sub(1), to, read));
+                            let (lo, hi) = Comparison::step_span(at, a.samples - 1);
+                            steps.push(largest_step((lo..=hi).map(read)));
                         }
                         let peak_kn = resp.peak_contact_force_n[flats[k].2.index()] / 1e3;
                         Ok((k, (g, steps, peak_kn)))

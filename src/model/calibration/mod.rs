@@ -237,6 +237,18 @@ pub struct UncertaintySource {
     pub max: f64,
 }
 
+impl UncertaintySource {
+    /// Variance of the uniform distribution on `[min, max]`.
+    pub fn variance(&self) -> f64 {
+        (self.max - self.min).powi(2) / 12.0
+    }
+
+    /// Its mean, `(min + max) / 2`.
+    pub fn mean(&self) -> f64 {
+        0.5 * (self.max + self.min)
+    }
+}
+
 /// What the maintenance rule acts on (`identification.maintenance_rule`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
