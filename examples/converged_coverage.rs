@@ -67,6 +67,10 @@ fn main() {
     let sim = Simulator::new(&cal).expect("bank model");
     let (insp, urg, top) = coverage::severity_limits(&cal);
     let mut rows: Vec<(Truth, Judged, Option<Judged>)> = Vec::new();
+    // Per case: the wheel named alone and right, and X_p inside its range (bank-only).
+    let mut wheel_right = 0;
+    let mut wheel_wrong = 0;
+    let mut xp_held = 0;
     for k in 0..cases {
         let csv = cache.join(format!("case-{k}.csv"));
         let text = std::fs::read_to_string(&csv).unwrap();
@@ -82,12 +86,19 @@ fn main() {
         } else {
             judge(out.falsifications[0].ranges.as_ref(), &t, false, insp, urg)
         };
+        if let Some(r) = out.falsifications[0].ranges.as_ref() {
+            wheel_right += usize::from(t.flat_wheel.is_some_and(|w| r.flat_wheels == [w]));
+            wheel_wrong += usize::from(t.flat_wheel.is_some_and(|w| !r.flat_wheels.contains(&w)));
+            let x = r.impact_position_m;
+            xp_held += usize::from(x[0] <= t.impact_position_m && t.impact_position_m <= x[1]);
+        }
         let r = with_refine.then(|| {
             let r = refine(&id, &sim, &out, RefineSettings::default()).expect("refined");
             judge(r.ranges.as_ref(), &t, false, insp, urg)
         });
         println!(
-            "{k:>4} L {:6.1} d {:.3} c {:.3} X {:.3} L0 {:5.1} off {:4.1} ms | bank {} [{:5.1},{:5.1}] cms {}{}",
+            "{k:>4} {:8} L {:6.1} d {:.3} c {:.3} X {:.3} L0 {:5.1} off {:4.1} ms | bank {} [{:5.1},{:5.1}] cms {}{}",
+            t.flat_wheel.map_or("-", |w| w.name()),
             t.length_mm,
             t.depth_mm,
             t.curvature_mm,
@@ -107,6 +118,9 @@ fn main() {
         );
         rows.push((t, b, r));
     }
+    println!(
+        "right wheel named alone: {wheel_right} of {cases}, the other wheel alone: {wheel_wrong}; X_p inside its range: {xp_held} of {cases} (bank-only)"
+    );
     for (group, lost) in [
         ("lost contact", true),
         ("kept contact", false),

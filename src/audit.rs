@@ -118,6 +118,8 @@ impl<'a> Resimulator<'a> {
                 BankError::Invalid(format!("the bank's stored calibration is invalid: {e}"))
             })?,
         };
+        // A folded bank is re-simulated as it was simulated: its stored pads and instances.
+        let cal = cal.stored();
         let sim = Simulator::new(&cal).map_err(|source| AuditError::Simulation {
             instance: 0,
             source,
@@ -136,6 +138,16 @@ impl<'a> Resimulator<'a> {
         stored: &StoredInstance,
         ws: &mut Workspace,
     ) -> Result<Vec<Vec<f32>>, AuditError> {
+        // A folded bank's instance: its stored instance re-simulated at the X_p stored (bit
+        // for bit what the generator ran), the windows then shifted as the bank presents them.
+        let as_stored;
+        let (stored, shift) = match self.bank.fold_split(stored.instance as usize) {
+            Some((i, k)) => {
+                as_stored = self.bank.read_stored_instance(i)?;
+                (&as_stored, k)
+            }
+            None => (stored, 0),
+        };
         let [l, d, c, xp, _, wheel, _] = stored.parameters;
         let wheel = WheelPosition::from_code(wheel as u8);
         let flat = Flat::from_mm(l, d, c, xp)
@@ -160,10 +172,9 @@ impl<'a> Resimulator<'a> {
             .iter()
             .map(|p| p.name.as_str())
             .collect();
-        Ok(self
+        let series = self
             .bank
-            .metadata()
-            .sensors
+            .stored_axes()
             .iter()
             .map(|a| match names.iter().position(|n| *n == a.name) {
                 Some(si) if a.first_sample >= resp.first_sample => {
@@ -180,7 +191,8 @@ impl<'a> Resimulator<'a> {
                 }
                 _ => vec![f32::NAN; a.samples],
             })
-            .collect())
+            .collect::<Vec<Vec<f32>>>();
+        Ok(self.bank.presented_windows(&series, shift))
     }
 }
 

@@ -142,6 +142,8 @@ pub fn synthesize_train(
             // A margin around the windows, as `synth` records: a bogie at another speed than
             // its bank's is read a little before and after them.
             doc.output.window_samples += 2 * MARGIN_SAMPLES;
+            // Simulated as the flat strikes; how a bank stores its population does not apply.
+            doc.population.fold_to_one_bay = false;
             let c = doc.check().map_err(|e| SimError::Setup(e.to_string()))?;
             let sim = Simulator::new(&c)?;
             let good = sim.run(None, Record::default())?;
@@ -411,7 +413,8 @@ pub struct WheelRow {
     pub bogie: usize,
     /// Leading or trailing wheel of the (half) bogie.
     pub wheel: WheelPosition,
-    /// `no`, `yes`, or `unknown` (the model class is refuted for this bogie).
+    /// `no`, `yes`, `unknown` (the model class is refuted for this bogie) or `not seen` (no
+    /// flat detected, but these sensors cannot see this wheel's flats at this pass).
     pub flat: String,
     /// L0 range of the flat (mm), when there is one.
     pub l0_mm: Option<[f64; 2]>,
@@ -534,7 +537,15 @@ pub fn identify_train(
         });
         for wheel in [WheelPosition::Leading, WheelPosition::Trailing] {
             // (verdict, L0 range, CMS count, the settings' rule on the wheel's ranges)
+            // A wheel whose flats the pass cannot see is not a good wheel: no verdict.
+            let unseen = detection.limit.as_ref().is_some_and(|l| {
+                l.l0_mm.is_none()
+                    || l.wheels
+                        .iter()
+                        .any(|w| w.wheel == wheel && w.l0_mm.is_none())
+            });
             let (flat, l0, count, by_rule) = match &identification {
+                None if unseen => ("not seen", None, 0, None),
                 None => ("no", None, 0, None),
                 // Smaller than the population: on a wheel the population puts flats on.
                 Some(id) if id.below_population => {

@@ -497,6 +497,14 @@ pub fn generate_family(
     for (k, &v) in speeds.iter().enumerate() {
         member_started(k, speeds.len(), v);
         let member_cal = at_speed(cal, v)?;
+        // A member stored unfolded (its speed has no whole number of samples per bay) holds
+        // as many instances as the folded members read.
+        let unfolded = (cal.fold_shifts() + 1) / (member_cal.fold_shifts() + 1);
+        let member_opts = GenerateOptions {
+            instances: opts.instances * unfolded,
+            ..opts.clone()
+        };
+        let opts = &member_opts;
         let member_dir = dir.join(member_dir_name(v));
         std::fs::create_dir_all(&member_dir).map_err(|source| BankError::Io {
             path: member_dir.clone(),
@@ -525,6 +533,12 @@ pub fn at_speed(
 ) -> Result<CheckedCalibration, BankError> {
     let mut doc = cal.document().clone();
     doc.run.speed_km_per_h = speed_km_per_h;
+    // A folded population needs a whole number of samples per sleeper bay; a member at a speed
+    // without one stores the same instances over the whole revolution instead (docs/bank.md
+    // "Folded banks": four times coarser in X_p).
+    if doc.population.fold_to_one_bay && !doc.bay_is_whole_samples() {
+        doc.population.fold_to_one_bay = false;
+    }
     doc.check()
         .map_err(|e| BankError::Invalid(format!("at {speed_km_per_h} km/h: {e}")))
 }

@@ -114,19 +114,23 @@ pub(crate) fn write_file_atomically(path: &Path, bytes: &[u8]) -> Result<(), Ban
 }
 
 /// The neighbour graph of the population's instances, built from the parameters exactly as
-/// the shards store them.
+/// the shards store them; over a folded bank's instances as it reads them (every stored
+/// instance at each whole-bay shift, [`super::reader::Bank::instances`]).
 fn population_graph(cal: &CheckedCalibration, opts: &GenerateOptions) -> Vec<u32> {
-    let population = Population::new(&cal.population, opts.instances, opts.seed);
+    let population = Population::new(&cal.stored_population(), opts.instances, opts.seed);
     let mut p = Parameters::default();
-    for i in 0..opts.instances {
-        let s = population.instance(i);
-        p.instance.push(i as u32);
-        p.length_mm.push(s.length_mm);
-        p.depth_mm.push(s.depth_mm);
-        p.curvature_mm.push(s.curvature_mm);
-        p.impact_position_m.push(s.impact_position_m);
-        p.flat_wheel
-            .push(s.wheel.unwrap_or(cal.vehicle.flat_wheel).index() as u8);
+    for k in 0..=cal.fold_shifts() {
+        for i in 0..opts.instances {
+            let s = population.instance(i);
+            p.instance.push((k * opts.instances + i) as u32);
+            p.length_mm.push(s.length_mm);
+            p.depth_mm.push(s.depth_mm);
+            p.curvature_mm.push(s.curvature_mm);
+            p.impact_position_m
+                .push(cal.folded_position_m(s.impact_position_m, k));
+            p.flat_wheel
+                .push(s.wheel.unwrap_or(cal.vehicle.flat_wheel).index() as u8);
+        }
     }
     neighbour_graph(&p, &cal.population)
 }
@@ -215,8 +219,13 @@ fn add_missing_aux(
     // A graph searched in another metric (the earlier, unstretched format, or other axis
     // weights) is replaced too; a damaged one stays, for `bank verify` to report.
     let other_metric = manifest.neighbours.as_ref().is_some_and(|aux| {
-        super::version::read_neighbours(version, aux, &manifest.bank_id, manifest.instances)
-            .is_ok_and(|g| !in_metric_of(g.weights, &cal.population))
+        super::version::read_neighbours(
+            version,
+            aux,
+            &manifest.bank_id,
+            manifest.instances * (cal.fold_shifts() + 1),
+        )
+        .is_ok_and(|g| !in_metric_of(g.weights, &cal.population))
     });
     if manifest.neighbours.is_none() || other_metric {
         manifest.neighbours = Some(write_neighbours(version, &manifest.bank_id, cal, opts)?);
@@ -340,8 +349,11 @@ pub fn generate(
             rows: opts.shard_size.min(opts.instances - first),
         }
     };
-    let simulator = Simulator::new(cal)?;
-    let axes_now = sensor_axes(cal);
+    // A folded bank is simulated with its stored pads and population (the calibration's own
+    // otherwise); its metadata keeps the calibration as given.
+    let stored = cal.stored();
+    let simulator = Simulator::new(&stored)?;
+    let axes_now = sensor_axes(&stored);
     let flat_free = simulator.run(None, Record::default())?;
     let flat_free_kn = axes_now
         .iter()
@@ -394,11 +406,11 @@ pub fn generate(
     let to_simulate: usize = missing.iter().map(|&f| shard_info(f).rows).sum();
     observer.started(to_simulate, resumed);
 
-    let population = Population::new(&cal.population, opts.instances, opts.seed);
+    let population = Population::new(&stored.population, opts.instances, opts.seed);
     let simulator = if missing.is_empty() {
         None
     } else {
-        Some(Simulator::new(cal)?)
+        Some(Simulator::new(&stored)?)
     };
     let axes = &base_meta.sensors;
     for &f in &missing {

@@ -17,6 +17,7 @@
 
 pub mod departures;
 pub mod family;
+mod fold;
 pub mod generate;
 pub mod info;
 pub mod layout;
@@ -25,6 +26,7 @@ pub mod neighbours;
 pub mod population;
 pub mod prune;
 pub mod reader;
+mod rows;
 pub mod schema;
 pub mod simulate;
 pub mod verify;

@@ -153,7 +153,7 @@ mod tests {
 
     #[test]
     fn instances_stay_in_range_and_honour_c_below_half_d() {
-        let p = Calibration::default().population;
+        let p = Calibration::paper_profile().population;
         for seed in [0, 7] {
             let pop = Population::new(&p, 5000, seed);
             for i in 0..pop.len() {
@@ -170,7 +170,7 @@ mod tests {
     fn hammersley_is_evenly_spread() {
         // Each coordinate puts N/10 points (±2 %) in every tenth of the range: a property of a
         // low-discrepancy set that a random sample of 10,000 misses by ~10 %.
-        let pop = Population::new(&Calibration::default().population, 10_000, 0);
+        let pop = Population::new(&Calibration::paper_profile().population, 10_000, 0);
         for dim in 0..4 {
             let mut bins = [0usize; 10];
             for i in 0..pop.len() {

@@ -7,6 +7,7 @@
 //! and [`Bank::read_columns`] decodes only the projected columns (`ProjectionMask`) from the
 //! mapped pages.
 
+use super::fold::Fold;
 use super::layout::{f32_values, f64_values, u32_values, Layout};
 pub use super::schema::Parameters;
 use super::schema::{
@@ -21,8 +22,7 @@ use super::BankError;
 use arrow_array::{Array, Float32Array, Float64Array, UInt32Array};
 use bytes::Bytes;
 use parquet::arrow::arrow_reader::{
-    ArrowReaderMetadata, ParquetRecordBatchReader, ParquetRecordBatchReaderBuilder, RowSelection,
-    RowSelector,
+    ArrowReaderMetadata, ParquetRecordBatchReader, ParquetRecordBatchReaderBuilder,
 };
 use parquet::arrow::ProjectionMask;
 use rayon::prelude::*;
@@ -30,12 +30,12 @@ use std::path::{Path, PathBuf};
 
 /// One mapped shard file.
 #[derive(Debug, Clone)]
-struct ShardFile {
-    path: PathBuf,
-    bytes: Bytes,
+pub(super) struct ShardFile {
+    pub(super) path: PathBuf,
+    pub(super) bytes: Bytes,
     /// The parsed footer; `None` when the bank is read through its layout.
-    meta: Option<ArrowReaderMetadata>,
-    rows: usize,
+    pub(super) meta: Option<ArrowReaderMetadata>,
+    pub(super) rows: usize,
 }
 
 impl ShardFile {
@@ -59,14 +59,16 @@ impl ShardFile {
 /// An open bank.
 #[derive(Debug, Clone)]
 pub struct Bank {
-    dir: PathBuf,
-    manifest: Manifest,
-    metadata: BankMetadata,
-    files: Vec<ShardFile>,
+    pub(super) dir: PathBuf,
+    pub(super) manifest: Manifest,
+    pub(super) metadata: BankMetadata,
+    pub(super) files: Vec<ShardFile>,
     /// The stored neighbour graph, checked at open (`None` for banks written without one).
-    neighbours: Option<super::neighbours::StoredGraph>,
+    pub(super) neighbours: Option<super::neighbours::StoredGraph>,
     /// The column layout, checked at open (`None`: read through the footers).
-    layout: Option<Layout>,
+    pub(super) layout: Option<Layout>,
+    /// A folded bank's view ([`super::fold`]; `None`: read as stored).
+    pub(super) fold: Option<Fold>,
 }
 
 /// One instance as stored: its parameter columns and its force series.
@@ -215,7 +217,9 @@ impl Bank {
                 (bank_meta, std::iter::once(head).chain(rest).collect())
             }
         };
-        let instances = files.iter().map(|f| f.rows).sum();
+        let (bank_meta, fold) = Fold::of(bank_meta, &version)?;
+        let stored: usize = files.iter().map(|f| f.rows).sum();
+        let instances = stored * fold.as_ref().map_or(1, Fold::factor);
         let neighbours = manifest
             .neighbours
             .as_ref()
@@ -228,6 +232,7 @@ impl Bank {
             files,
             neighbours,
             layout,
+            fold,
         })
     }
 
@@ -258,9 +263,20 @@ impl Bank {
         &self.manifest
     }
 
-    /// Number of instances.
+    /// Number of instances: those stored, times the whole-bay shifts of a folded bank.
     pub fn instances(&self) -> usize {
+        self.stored_instances() * self.fold.as_ref().map_or(1, Fold::factor)
+    }
+
+    /// Number of instances stored (rows of the shard files).
+    pub fn stored_instances(&self) -> usize {
         self.files.iter().map(|f| f.rows).sum()
+    }
+
+    /// Presented instances per stored one: the whole-bay shifts of a folded bank plus one
+    /// (1: not folded).
+    pub fn fold_factor(&self) -> usize {
+        self.fold.as_ref().map_or(1, Fold::factor)
     }
 
     /// Schema index of sample `k` of sensor number `s`.
@@ -269,7 +285,10 @@ impl Bank {
     }
 
     /// A shard's parsed footer (banks without a layout have every footer parsed at open).
-    fn footer<'a>(&self, file: &'a ShardFile) -> Result<&'a ArrowReaderMetadata, BankError> {
+    pub(super) fn footer<'a>(
+        &self,
+        file: &'a ShardFile,
+    ) -> Result<&'a ArrowReaderMetadata, BankError> {
         file.meta.as_ref().ok_or_else(|| {
             BankError::Invalid(format!(
                 "{}: read through the layout, its footer was not parsed",
@@ -318,7 +337,20 @@ impl Bank {
     /// fresh 12 MB allocation costs more in page faults than the copying itself). Shard files
     /// are read in parallel on the current rayon pool, each straight into its own slices.
     pub fn read_columns_flat(&self, indices: &[usize], out: &mut [f32]) -> Result<(), BankError> {
-        let n = self.instances();
+        match &self.fold {
+            // Each presented column is its stored columns at shifts 0..=K, one after another:
+            // the stored reads land exactly where the presented column's blocks go.
+            Some(fold) => {
+                let stored = fold.stored_columns(&self.metadata.sensors, indices)?;
+                self.read_stored_columns(&stored, out)
+            }
+            None => self.read_stored_columns(indices, out),
+        }
+    }
+
+    /// [`Bank::read_columns_flat`] over the stored columns and instances.
+    fn read_stored_columns(&self, indices: &[usize], out: &mut [f32]) -> Result<(), BankError> {
+        let n = self.stored_instances();
         if out.len() != indices.len() * n {
             return Err(BankError::Invalid(format!(
                 "a buffer of {} values for {} columns of {n} instances",
@@ -440,141 +472,17 @@ impl Bank {
             })
     }
 
-    /// Reads one whole instance (row `instance`: rows are stored in instance order): that row
-    /// of its shard file only.
-    pub fn read_instance(&self, instance: usize) -> Result<StoredInstance, BankError> {
-        let n = self.instances();
-        if instance >= n {
-            return Err(BankError::Invalid(format!(
-                "instance {instance} is not in the bank (it holds instances 0 to {})",
-                n.saturating_sub(1)
-            )));
-        }
-        let mut row = instance;
-        let shard = self
-            .files
-            .iter()
-            .position(|f| {
-                if row < f.rows {
-                    true
-                } else {
-                    row -= f.rows;
-                    false
-                }
-            })
-            .expect("the row is within the files' rows");
-        let file = &self.files[shard];
-        let corrupt = |message: String| BankError::Corrupt {
-            path: file.path.clone(),
-            message,
-        };
-        let (number, parameters, samples) = match &self.layout {
-            Some(layout) => {
-                // Every column's whole chunk is checked (the CRC covers the chunk): 50 MB for a
-                // 2,500-row shard of the default bank, a few milliseconds for an audit.
-                let at =
-                    |col: usize| layout.values(shard, col, row..row + 1, &file.bytes, &file.path);
-                let number = u32_values(at(0)?).next().expect("one value");
-                let mut parameters = [0.0; PARAMETER_COLUMNS.len()];
-                for (k, p) in parameters.iter_mut().enumerate() {
-                    *p = f64_values(at(1 + k)?).next().expect("one value");
-                }
-                let samples: Vec<f32> = (1 + PARAMETER_COLUMNS.len()..layout.widths.len())
-                    .map(|col| {
-                        let mut v = [0.0f32];
-                        f32_values(at(col)?, &mut v);
-                        Ok(v[0])
-                    })
-                    .collect::<Result<_, BankError>>()?;
-                (number, parameters, samples)
-            }
-            None => self.decode_row(file, row)?,
-        };
-        if number as usize != instance {
-            return Err(corrupt(format!(
-                "row {row} holds instance {number}, expected {instance}"
-            )));
-        }
-        let mut samples = samples.into_iter();
-        let forces_kn = self
-            .metadata
-            .sensors
-            .iter()
-            .map(|axis| samples.by_ref().take(axis.samples).collect::<Vec<f32>>())
-            .collect::<Vec<_>>();
-        if forces_kn
-            .iter()
-            .zip(&self.metadata.sensors)
-            .any(|(v, a)| v.len() != a.samples)
-        {
-            return Err(corrupt(format!("row {row} holds too few force samples")));
-        }
-        Ok(StoredInstance {
-            instance: number,
-            parameters,
-            forces_kn,
+    /// Reads the parameter columns of every instance (a folded bank's at every shift).
+    pub fn read_parameters(&self) -> Result<Parameters, BankError> {
+        let p = self.read_stored_parameters()?;
+        Ok(match &self.fold {
+            Some(fold) => fold.expand(p),
+            None => p,
         })
     }
 
-    /// One row of a shard through its footer: instance number, parameters, force samples.
-    #[allow(clippy::type_complexity)]
-    fn decode_row(
-        &self,
-        file: &ShardFile,
-        row: usize,
-    ) -> Result<(u32, [f64; PARAMETER_COLUMNS.len()], Vec<f32>), BankError> {
-        let corrupt = |message: String| BankError::Corrupt {
-            path: file.path.clone(),
-            message,
-        };
-        let reader = ParquetRecordBatchReaderBuilder::new_with_metadata(
-            file.bytes.clone(),
-            self.footer(file)?.clone(),
-        )
-        .with_row_selection(RowSelection::from(vec![
-            RowSelector::skip(row),
-            RowSelector::select(1),
-        ]))
-        .build()
-        .map_err(parquet_err(&file.path))?;
-        let mut batches = Vec::new();
-        for batch in reader {
-            batches.push(batch.map_err(|e| corrupt(e.to_string()))?);
-        }
-        let batch = match batches.as_slice() {
-            [b] if b.num_rows() == 1 => b,
-            _ => return Err(corrupt(format!("row {row} could not be read"))),
-        };
-        let number = batch
-            .column(0)
-            .as_any()
-            .downcast_ref::<UInt32Array>()
-            .map(|a| a.value(0))
-            .ok_or_else(|| corrupt("the instance column is not u32".into()))?;
-        let mut parameters = [0.0; PARAMETER_COLUMNS.len()];
-        for (k, p) in parameters.iter_mut().enumerate() {
-            *p = batch
-                .column(1 + k)
-                .as_any()
-                .downcast_ref::<Float64Array>()
-                .map(|a| a.value(0))
-                .ok_or_else(|| corrupt(format!("`{}` is not f64", PARAMETER_COLUMNS[k])))?;
-        }
-        let samples = (1 + PARAMETER_COLUMNS.len()..batch.num_columns())
-            .map(|col| {
-                batch
-                    .column(col)
-                    .as_any()
-                    .downcast_ref::<Float32Array>()
-                    .map(|a| a.value(0))
-                    .ok_or_else(|| corrupt(format!("column {col} is not a force sample")))
-            })
-            .collect::<Result<Vec<f32>, BankError>>()?;
-        Ok((number, parameters, samples))
-    }
-
-    /// Reads the parameter columns of every instance.
-    pub fn read_parameters(&self) -> Result<Parameters, BankError> {
+    /// The parameter columns as stored.
+    fn read_stored_parameters(&self) -> Result<Parameters, BankError> {
         let mut p = Parameters::default();
         if let Some(layout) = &self.layout {
             for (s, file) in self.files.iter().enumerate() {

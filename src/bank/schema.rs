@@ -416,7 +416,7 @@ mod tests {
 
     #[test]
     fn bank_identity_ignores_the_identification_settings_but_not_the_model() {
-        let base = Calibration::default();
+        let base = Calibration::paper_profile();
         let id = |c: &Calibration| bank_id(&c.clone().check().unwrap(), 100, 0, 50, "plain");
         let mut other = base.clone();
         other.identification.phi = 0.9;

@@ -83,6 +83,8 @@ pub fn verify(dir: &Path) -> Result<(Manifest, Vec<VerifyProblem>), BankError> {
         first += f.rows;
     }
     let mut footers = Vec::with_capacity(manifest.files.len());
+    // Instances as read per stored one (a folded bank's shifts; its neighbour graph spans them).
+    let mut fold_factor = 1;
     for (index, f) in manifest.files.iter().enumerate() {
         let path = version.join(&f.name);
         let bytes = match std::fs::read(&path) {
@@ -125,6 +127,7 @@ pub fn verify(dir: &Path) -> Result<(Manifest, Vec<VerifyProblem>), BankError> {
             Ok((bytes, meta, bank_meta)) => {
                 let footer_rows = meta.metadata().file_metadata().num_rows() as usize;
                 let place = bank_meta.shard;
+                fold_factor = bank_meta.calibration.fold_shifts() + 1;
                 let mismatch = if bank_meta.bank_id != manifest.bank_id {
                     Some(format!(
                         "belongs to bank {}, the manifest is bank {}",
@@ -165,7 +168,12 @@ pub fn verify(dir: &Path) -> Result<(Manifest, Vec<VerifyProblem>), BankError> {
         }
     }
     if let Some(aux) = &manifest.neighbours {
-        if let Err(e) = read_neighbours(&version, aux, &manifest.bank_id, manifest.instances) {
+        if let Err(e) = read_neighbours(
+            &version,
+            aux,
+            &manifest.bank_id,
+            manifest.instances * fold_factor,
+        ) {
             problems.push(VerifyProblem {
                 path: version.join(&aux.name),
                 message: e.to_string(),
@@ -178,7 +186,7 @@ pub fn verify(dir: &Path) -> Result<(Manifest, Vec<VerifyProblem>), BankError> {
     let departures = version.join(super::departures::DEPARTURES_FILE);
     if let Ok(bytes) = std::fs::read(&departures) {
         if let Err(message) =
-            super::departures::check(&bytes, &manifest.bank_id, manifest.instances)
+            super::departures::check(&bytes, &manifest.bank_id, manifest.instances * fold_factor)
         {
             problems.push(VerifyProblem {
                 path: departures,

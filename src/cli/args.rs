@@ -4,6 +4,7 @@
 //! The doc comments on the fields and variants are the `--help` text; the types themselves
 //! carry plain comments so that clap does not take them for help text.
 
+pub(super) use super::flat_args::FlatArgs;
 use crate::bank::family::SpeedBand;
 use crate::bank::{Codec, ValueEncoding};
 use crate::model::{Effect, Flat, WheelPosition};
@@ -28,9 +29,10 @@ pub(super) enum Command {
         /// Write to this file instead of standard output.
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Population profile: `paper` (flat on the trailing wheel, X_p in [12, 13] m) or
-        /// `train` (either wheel, X_p over one wheel revolution; what `train` needs).
-        #[arg(long, value_enum, default_value_t = Profile::Paper)]
+        /// Population profile: `site` (either wheel, X_p over one wheel revolution, folded
+        /// into one bay; what a site and `train` need), `paper` (the paper's case study: the
+        /// trailing wheel, X_p in [12, 13] m) or `narrow` (CI-sized).
+        #[arg(long, value_enum, default_value_t = Profile::Site)]
         profile: Profile,
         /// The profile at the converged reference's mesh and step (40 rail elements per bay,
         /// 20 µs / 2 µs): for simulating measurements that carry the bank mesh's
@@ -95,7 +97,8 @@ pub(super) enum Command {
         /// Bank directory (built here on first use; reused while it is up to date).
         #[arg(long, default_value = "bank")]
         bank: PathBuf,
-        /// Instances in the bank (the paper's 50,000; fewer for a quick look).
+        /// Instances in the bank as identification reads them (the paper's 50,000; fewer for
+        /// a quick look; a folded bank stores a quarter of them).
         #[arg(long, default_value_t = DEFAULT_INSTANCES)]
         instances: usize,
     },
@@ -104,10 +107,11 @@ pub(super) enum Command {
 /// The built-in population profiles.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub(super) enum Profile {
-    /// The paper's: trailing wheel, X_p in [12, 13] m.
+    /// A site's (the default): both wheels, X_p over one revolution, folded into one bay.
+    #[value(alias = "train")]
+    Site,
+    /// The paper's case study: trailing wheel, X_p in [12, 13] m.
     Paper,
-    /// Whole-train monitoring: both wheels, X_p over one revolution.
-    Train,
     /// CI-sized: narrower flat ranges and 600-sample windows, for small banks (tests, the
     /// diagnosis suite, trying things out).
     Narrow,
@@ -169,7 +173,8 @@ pub(super) struct GenerateArgs {
     /// Calibration file (TOML); the built-in defaults when omitted.
     #[arg(long)]
     pub calibration: Option<PathBuf>,
-    /// Instances in the population.
+    /// Instances in the population as identification reads them; a folded population (the
+    /// default) stores one in four, each read at four whole-bay shifts (a multiple of 4).
     #[arg(long, default_value_t = DEFAULT_INSTANCES)]
     pub instances: usize,
     /// Bank directory.
@@ -468,41 +473,6 @@ pub(super) struct CompareArgs {
     /// Truth JSON from `synth`, to mark whether each method's range holds it.
     #[arg(long)]
     pub truth: Option<PathBuf>,
-}
-
-// A flat, or none.
-#[derive(Debug, Args)]
-pub(super) struct FlatArgs {
-    /// Flat length L (mm).
-    #[arg(long = "l-mm", default_value_t = 60.0)]
-    pub length_mm: f64,
-    /// Flat depth d (mm).
-    #[arg(long = "d-mm", default_value_t = 0.5)]
-    pub depth_mm: f64,
-    /// Curvature parameter c (mm), 0 ≤ c < d/2.
-    #[arg(long = "c-mm", default_value_t = 0.1)]
-    pub curvature_mm: f64,
-    /// Impact position X_p (m from the left rail end).
-    #[arg(long = "xp-m", default_value_t = 12.4)]
-    pub impact_position_m: f64,
-    /// Simulate a good wheel (no flat): the flat-free signature.
-    #[arg(long, conflicts_with_all = ["length_mm", "depth_mm", "curvature_mm", "impact_position_m"])]
-    pub no_flat: bool,
-}
-
-impl FlatArgs {
-    /// The flat these arguments describe, checked; `None` for `--no-flat`.
-    pub fn flat(&self) -> Result<Option<Flat>> {
-        if self.no_flat {
-            return Ok(None);
-        }
-        Ok(Some(Flat::from_mm(
-            self.length_mm,
-            self.depth_mm,
-            self.curvature_mm,
-            self.impact_position_m,
-        )?))
-    }
 }
 
 // `simulate`.

@@ -15,8 +15,18 @@ use std::time::Instant;
 /// on a pool of the asked threads, with progress on standard error.
 pub(super) fn generate(a: &GenerateArgs, simulate_missing: bool) -> Result<()> {
     let cal = load_calibration(a.calibration.as_deref())?;
+    // `--instances` counts instances as identification reads them: a folded population
+    // stores one in K + 1 ([`crate::model::Calibration::fold_shifts`]).
+    let factor = cal.fold_shifts() + 1;
+    if !a.instances.is_multiple_of(factor) {
+        anyhow::bail!(
+            "--instances {}: the calibration folds X_p into one sleeper bay and reads each stored instance at {factor} whole-bay shifts, so the count must be a multiple of {factor} (e.g. {})",
+            a.instances,
+            a.instances.div_ceil(factor) * factor
+        );
+    }
     let opts = GenerateOptions {
-        instances: a.instances,
+        instances: a.instances / factor,
         seed: a.seed,
         shard_size: a.shard_size,
         machine_shard: a.shard,
@@ -164,15 +174,27 @@ pub(super) fn info(dir: &Path) -> Result<()> {
         m.format_version, m.generator, m.model_revision
     );
     println!("calibration     sha256 {}", m.calibration_sha256);
+    let folded = match b.fold_factor() {
+        1 => String::new(),
+        k => format!(
+            " ({} stored over one sleeper bay × {k} whole-bay shifts: X_p over a revolution; stored windows also at {})",
+            b.stored_instances(),
+            b.stored_axes()[m.sensors.len()..]
+                .iter()
+                .map(|a| a.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    };
     println!(
-        "instances       {} in {} shard files of {}",
+        "instances       {} in {} shard files of {}{folded}",
         size.instances, size.files, m.shard_size
     );
     println!("sampling        {} (seed {})", m.sampling, m.seed);
     println!(
-        "size            {:.1} MB, {:.1} kB per instance",
+        "size            {:.1} MB, {:.1} kB per stored instance",
         size.megabytes(),
-        size.kilobytes_per_instance()
+        size.kilobytes_per_instance() * b.fold_factor() as f64
     );
     println!("sensors         (force in {})", m.force_unit);
     for s in &m.sensors {

@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 /// `converged`), or writes it to `out`.
 pub(super) fn run(out: Option<&Path>, profile: Profile, converged: bool) -> Result<()> {
     let cal = match profile {
-        Profile::Paper => Calibration::default(),
-        Profile::Train => Calibration::train_profile(),
+        Profile::Paper => Calibration::paper_profile(),
+        Profile::Site => Calibration::default(),
         Profile::Narrow => Calibration::narrow_profile(),
     };
     let text = if converged {

@@ -48,8 +48,10 @@ pub fn truths_within(cal: &CheckedCalibration, cases: usize, seed: u64, inset: f
     (0..cases)
         .map(|i| {
             let s = pop.instance(i);
-            Flat::from_mm(s.length_mm, s.depth_mm, s.curvature_mm, s.impact_position_m)
-                .expect("population honours c < d/2")
+            let f = Flat::from_mm(s.length_mm, s.depth_mm, s.curvature_mm, s.impact_position_m)
+                .expect("population honours c < d/2");
+            // On the wheel the population draws (the calibration's when it draws none).
+            f.on_wheel(s.wheel.unwrap_or(cal.vehicle.flat_wheel))
         })
         .collect()
 }

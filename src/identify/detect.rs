@@ -158,6 +158,19 @@ pub struct DetectionLimit {
     pub share_detected: f64,
     /// Every bin, smallest L0 first.
     pub bins: Vec<LimitBin>,
+    /// Per wheel, when the bank puts flats on both: that wheel's limit (its L0 from which
+    /// flats are surely detected; `None`: this pass does not see that wheel's flats).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub wheels: Vec<WheelLimit>,
+}
+
+/// One wheel's detection limit.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct WheelLimit {
+    /// The wheel.
+    pub wheel: crate::model::WheelPosition,
+    /// [`DetectionLimit::l0_mm`] over that wheel's instances.
+    pub l0_mm: Option<f64>,
 }
 
 /// The result of the detection step.
@@ -302,14 +315,27 @@ pub fn falsified_by_departure(
 
 /// The detection limit over the instances with L0 `l0_mm` ([`DetectionLimit`]).
 pub fn limit(d: &Departures, l0_mm: &[f64], axes: &[usize], b: &TableBounds) -> DetectionLimit {
-    let lowest = l0_mm.iter().copied().fold(f64::INFINITY, f64::min);
-    let highest = l0_mm.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    if l0_mm.is_empty() || !lowest.is_finite() || !highest.is_finite() {
+    limit_of(d, l0_mm, axes, b, |_| true)
+}
+
+/// [`limit`] over the instances `keep` accepts (e.g. one wheel's).
+pub fn limit_of(
+    d: &Departures,
+    l0_mm: &[f64],
+    axes: &[usize],
+    b: &TableBounds,
+    keep: impl Fn(usize) -> bool,
+) -> DetectionLimit {
+    let kept = || l0_mm.iter().enumerate().filter(|&(i, _)| keep(i));
+    let lowest = kept().map(|(_, &l)| l).fold(f64::INFINITY, f64::min);
+    let highest = kept().map(|(_, &l)| l).fold(f64::NEG_INFINITY, f64::max);
+    if !lowest.is_finite() || !highest.is_finite() {
         return DetectionLimit {
             l0_mm: None,
             at_population_floor: false,
             share_detected: 0.0,
             bins: Vec::new(),
+            wheels: Vec::new(),
         };
     }
     let first = (lowest / LIMIT_BIN_MM).floor() * LIMIT_BIN_MM;
@@ -322,7 +348,9 @@ pub fn limit(d: &Departures, l0_mm: &[f64], axes: &[usize], b: &TableBounds) -> 
         })
         .collect();
     let mut total = 0usize;
-    for (i, &l0) in l0_mm.iter().enumerate() {
+    let mut n = 0usize;
+    for (i, &l0) in kept() {
+        n += 1;
         let j = (((l0 - first) / LIMIT_BIN_MM).floor() as usize).min(count - 1);
         bins[j].instances += 1;
         if surely_detected(d, axes, i, b) {
@@ -339,8 +367,9 @@ pub fn limit(d: &Departures, l0_mm: &[f64], axes: &[usize], b: &TableBounds) -> 
     DetectionLimit {
         l0_mm: l0,
         at_population_floor: from == 0,
-        share_detected: total as f64 / l0_mm.len() as f64,
+        share_detected: total as f64 / n as f64,
         bins,
+        wheels: Vec::new(),
     }
 }
 
@@ -489,5 +518,36 @@ mod tests {
             ..d
         };
         assert_eq!(limit(&none_seen, &l0, &[0], &bounds()).l0_mm, None);
+    }
+
+    #[test]
+    fn a_wheel_whose_strikes_the_sensors_miss_has_no_limit_of_its_own() {
+        // Even instances on one wheel, seen from L0 30 mm; odd ones on the other, never seen
+        // (their strikes fall where the sensors cannot see them). Over both, at most half of a
+        // bin is detected, so there is no limit; per wheel, one has its limit, the other
+        // none: "flat not seen" for that wheel, never "good".
+        let l0: Vec<f64> = (0..800).map(|i| 18.0 + (i / 2) as f64 * 0.1).collect();
+        let dep: Vec<f32> = l0
+            .iter()
+            .enumerate()
+            .map(|(i, &l)| if i % 2 == 0 && l >= 30.0 { 10.0 } else { 1.0 })
+            .collect();
+        let d = Departures {
+            instances: l0.len(),
+            departure_kn: vec![dep],
+            flat_free_kn: vec![vec![20.0; l0.len()]],
+        };
+        assert_eq!(limit(&d, &l0, &[0], &bounds()).l0_mm, None);
+        let seen = limit_of(&d, &l0, &[0], &bounds(), |i| i % 2 == 0);
+        assert_eq!(seen.l0_mm, Some(30.0));
+        assert!(
+            (seen.share_detected - 0.7).abs() < 0.01,
+            "{}",
+            seen.share_detected
+        );
+        assert_eq!(
+            limit_of(&d, &l0, &[0], &bounds(), |i| i % 2 == 1).l0_mm,
+            None
+        );
     }
 }

@@ -2,11 +2,12 @@
 //! ([`super::detect`]), its detection limit from the bank's departures table, and the answer of
 //! a pass in which no flat is detected. `identify`, `watch` and `train` all come through here.
 
-use super::detect::{self, Detection, DetectionLimit};
+use super::detect::{self, Detection, DetectionLimit, WheelLimit};
 use super::ranges::population_ranges;
 use super::result::{Alignment, MeasuredSeries, SpeedUse};
 use super::{Identification, Identifier, IdentifyError, Measurement};
 use crate::bank::departures::{self, Departures};
+use crate::model::WheelPosition;
 use std::sync::Arc;
 
 impl Identifier {
@@ -36,7 +37,21 @@ impl Identifier {
     /// The detection limit of a pass through the bank axes `axes` ([`DetectionLimit`]).
     pub fn detection_limit(&self, axes: &[usize]) -> Result<DetectionLimit, IdentifyError> {
         let d = self.departures()?;
-        Ok(detect::limit(&d, &self.params.l0_mm, axes, &self.bounds))
+        let mut limit = detect::limit(&d, &self.params.l0_mm, axes, &self.bounds);
+        let codes = &self.params.flat_wheel;
+        if codes.iter().any(|&c| c != codes[0]) {
+            limit.wheels = [WheelPosition::Leading, WheelPosition::Trailing]
+                .into_iter()
+                .map(|wheel| WheelLimit {
+                    wheel,
+                    l0_mm: detect::limit_of(&d, &self.params.l0_mm, axes, &self.bounds, |i| {
+                        codes[i] as usize == wheel.index()
+                    })
+                    .l0_mm,
+                })
+                .collect();
+        }
+        Ok(limit)
     }
 
     /// Sizing's departure rule ([`detect::falsified_by_departure`]) over the candidate model
@@ -119,15 +134,30 @@ impl Identifier {
             ),
             (None, _) => "no size of flat in the bank's population is surely detected by these sensors at this speed (its strikes fall where they cannot see them): this pass says nothing about a flat".into(),
         };
+        // A wheel whose flats this pass does not see gets no verdict, whatever the other's.
+        let unseen: Vec<&str> = limit
+            .wheels
+            .iter()
+            .filter(|w| w.l0_mm.is_none())
+            .map(|w| w.wheel.name())
+            .collect();
+        let unseen_words = match (limit.l0_mm, unseen.as_slice()) {
+            (Some(_), [w]) => format!(
+                " Flat not seen on the {w} wheel: no size of flat on it is surely detected by these sensors at this speed (its strikes can fall where they cannot see them); no verdict for that wheel."
+            ),
+            _ => String::new(),
+        };
         let summary = format!(
-            "No flat detected: every one of the {} samples of {} sensor(s) lies within the good wheel's bounds{closest}. Detection limit: {limit_words}.",
+            "No flat detected: every one of the {} samples of {} sensor(s) lies within the good wheel's bounds{closest}. Detection limit: {limit_words}.{unseen_words}",
             detection.samples,
             detection.sensors.len(),
         );
-        let hint = if limit.l0_mm.is_some() {
-            "No action: no flat detected at this pass.".to_string()
-        } else {
-            "No verdict: the sensors used cannot see this wheel's flats; do not count this pass as a good wheel.".to_string()
+        let hint = match (limit.l0_mm, unseen.as_slice()) {
+            (Some(_), []) => "No action: no flat detected at this pass.".to_string(),
+            (Some(_), [w]) => format!(
+                "No action on the other wheel; no verdict on the {w} wheel: these sensors cannot see its flats — do not count this pass as a good {w} wheel."
+            ),
+            _ => "No verdict: the sensors used cannot see this wheel's flats; do not count this pass as a good wheel.".to_string(),
         };
         detection.limit = Some(limit);
         timings_ms.push((

@@ -172,8 +172,12 @@ pub(crate) fn summarise(
                     i.peak_contact_kn[0], i.peak_contact_kn[1], i.dynamic_ratio[0], i.dynamic_ratio[1]
                 )
             });
+            let wheel = match r.flat_wheels.as_slice() {
+                [w] => format!(" on the {} wheel", w.name()),
+                _ => " on either wheel".to_string(),
+            };
             let summary = format!(
-                "{count} of {n} model instances survive {m} comparison points (φ = {}): flat length L in [{:.0}, {:.0}] mm, depth d in [{:.2}, {:.2}] mm, fresh-flat length L0 in [{:.0}, {:.0}] mm, impact at X_p in [{:.2}, {:.2}] m.{impact}",
+                "{count} of {n} model instances survive {m} comparison points (φ = {}): flat length L in [{:.0}, {:.0}] mm, depth d in [{:.2}, {:.2}] mm, fresh-flat length L0 in [{:.0}, {:.0}] mm, impact at X_p in [{:.2}, {:.2}] m{wheel}.{impact}",
                 s.phi, r.length_mm[0], r.length_mm[1], r.depth_mm[0], r.depth_mm[1], r.l0_mm[0], r.l0_mm[1], r.impact_position_m[0], r.impact_position_m[1]
             );
             let hint = Severity::hint_of_ranges(r, s);

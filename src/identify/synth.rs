@@ -9,7 +9,7 @@
 
 use super::uncertainty::uniform;
 use crate::model::calibration::{IdentificationParams, UncertaintyGroup, UncertaintyKind};
-use crate::model::{CheckedCalibration, Flat, Record, SimError, Simulator};
+use crate::model::{CheckedCalibration, Flat, Record, SimError, Simulator, WheelPosition};
 use serde::{Deserialize, Serialize};
 
 /// Extra samples recorded before the first and after the last sensor window.
@@ -35,6 +35,9 @@ pub struct Truth {
     /// How long the flat's wheel was off the rail, noise-free (ms; 0 when it kept contact).
     #[serde(default)]
     pub contact_loss_ms: f64,
+    /// The wheel carrying the flat (absent for a good wheel).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flat_wheel: Option<WheelPosition>,
     /// Seed of the perturbation.
     pub seed: u64,
     /// Per sensor: the systematic model error E_model drawn (fraction).
@@ -231,6 +234,7 @@ pub fn synthesize_pass(
         contact_loss_ms: flat.map_or(0.0, |f| {
             resp.contact_loss_s[f.wheel().unwrap_or(cal.vehicle.flat_wheel).index()] * 1e3
         }),
+        flat_wheel: flat.map(|f| f.wheel().unwrap_or(cal.vehicle.flat_wheel)),
         seed,
         model_error: names.iter().cloned().zip(model_error).collect(),
         gain_error: names.iter().cloned().zip(gain_error).collect(),

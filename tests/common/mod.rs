@@ -21,10 +21,10 @@ pub fn wheelflat() -> Command {
     Command::new(wheelflat_path())
 }
 
-/// The default (paper) calibration with `window_samples`-sample windows per sensor: short
-/// windows keep banks small and fast to build.
+/// The paper's calibration ([`Calibration::paper_profile`]) with `window_samples`-sample
+/// windows per sensor: short windows keep banks small and fast to build.
 pub fn small_calibration(window_samples: usize) -> Calibration {
-    let mut c = Calibration::default();
+    let mut c = Calibration::paper_profile();
     c.output.window_samples = window_samples;
     c
 }

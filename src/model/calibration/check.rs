@@ -444,6 +444,7 @@ impl Calibration {
             }
         }
 
+        self.check_fold()?;
         let checked = CheckedCalibration(self);
         // Windows: each must start at t >= 0 and end while the leading wheel is still on the rail.
         let rate = checked.output.sample_rate_hz;
@@ -478,7 +479,7 @@ impl Calibration {
     }
 }
 
-fn invalid(key: &str, value: impl std::fmt::Display, reason: &str) -> CalibrationError {
+pub(super) fn invalid(key: &str, value: impl std::fmt::Display, reason: &str) -> CalibrationError {
     CalibrationError::Invalid {
         key: key.to_string(),
         value: value.to_string(),

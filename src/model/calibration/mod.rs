@@ -9,6 +9,7 @@
 
 mod check;
 mod defaults;
+mod fold;
 
 pub use super::effect::Effect;
 pub use super::wheel::WheelPosition;
@@ -199,6 +200,13 @@ pub struct PopulationParams {
     /// X_p over one wheel revolution.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub flat_wheels: Option<Vec<WheelPosition>>,
+    /// Store X_p over the first sleeper bay of `impact_position_m` only, and stand in for the
+    /// rest of the range by whole-bay shifts: the track is periodic, so a strike one bay later
+    /// gives the same forces one sensor later ([`Calibration::fold_shifts`], docs/bank.md
+    /// "Folded banks"). The range must then be one wheel revolution; the bank stores the
+    /// windows of the sensors shifted back by up to [`Calibration::fold_shifts`] sleepers.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub fold_to_one_bay: bool,
 }
 
 /// Whether an uncertainty source scales with the force or is a fixed amount.
