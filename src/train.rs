@@ -137,13 +137,12 @@ pub fn synthesize_train(
     let sims: Vec<(f64, Simulator, crate::model::Response)> = speeds
         .iter()
         .map(|&kmh| {
-            let mut doc = cal.document().clone();
+            // Simulated as the flat strikes; how a bank stores its population does not apply.
+            let mut doc = cal.unfolded();
             doc.run.speed_km_per_h = kmh;
             // A margin around the windows, as `synth` records: a bogie at another speed than
             // its bank's is read a little before and after them.
             doc.output.window_samples += 2 * MARGIN_SAMPLES;
-            // Simulated as the flat strikes; how a bank stores its population does not apply.
-            doc.population.fold_to_one_bay = false;
             let c = doc.check().map_err(|e| SimError::Setup(e.to_string()))?;
             let sim = Simulator::new(&c)?;
             let good = sim.run(None, Record::default())?;

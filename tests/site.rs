@@ -149,3 +149,50 @@ fn instances_are_counted_as_read_and_a_folded_speed_that_cannot_fold_still_simul
     let truth = std::fs::read_to_string(dir.path().join("m49.truth.json")).unwrap();
     assert!(truth.contains("\"flat_wheel\": \"leading\""), "{truth}");
 }
+
+#[test]
+fn a_model_gap_on_a_site_bank_is_named_and_the_calibration_to_rebuild_with_stays_folded() {
+    // The local bank diagnose builds around the fitted flat is a few cells of X_p, not a
+    // revolution: it is built unfolded; the calibration written for the user is the bank's own
+    // (folded, the whole population) with the effect.
+    let (dir, cal) = site_bank();
+    let tmp = tempfile::tempdir().unwrap();
+    let toml = common::write_calibration(cal.document(), tmp.path());
+    let m = tmp.path().join("gap.csv");
+    common::wheelflat()
+        .args([
+            "synth", "--l-mm", "60", "--d-mm", "0.45", "--c-mm", "0.05", "--xp-m", "13.6",
+        ])
+        .args(["--wheel", "leading", "--seed", "5"])
+        .args([
+            "--effect",
+            "pad_stiffness:sleeper=16,factor=0.5",
+            "--calibration",
+        ])
+        .arg(&toml)
+        .arg("--out")
+        .arg(&m)
+        .assert()
+        .success();
+    let out = tmp.path().join("diagnosis");
+    let run = common::wheelflat()
+        .args(["diagnose", "--local-instances", "400", "--bank"])
+        .arg(dir)
+        .arg("--measured")
+        .arg(&m)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    let stdout = String::from_utf8_lossy(&run.get_output().stdout).to_string();
+    assert!(
+        stdout.contains("missing effect: pad_stiffness at sleeper 16"),
+        "{stdout}"
+    );
+    let with = Calibration::from_toml_str(
+        &std::fs::read_to_string(out.join("calibration-with-effect.toml")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(with.population, cal.population);
+    assert_eq!(with.effects.len(), 1);
+}

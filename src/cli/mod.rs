@@ -160,7 +160,7 @@ fn load(path: Option<&Path>, unfolded: bool) -> Result<CheckedCalibration> {
         }
     };
     if unfolded {
-        doc.population.fold_to_one_bay = false;
+        doc = doc.unfolded();
     }
     match at {
         None => Ok(doc.check()?),

@@ -100,7 +100,8 @@ impl Stage {
 /// The effect added and what identification says with it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Added {
-    /// The calibration with the effect (TOML), as written next to the report.
+    /// The bank's calibration with the effect (TOML; its whole population), as written next to
+    /// the report.
     pub calibration_toml: String,
     /// The local bank: where, and over which flat ranges.
     pub local_bank: String,
@@ -584,7 +585,7 @@ pub fn diagnose(
     }
     lap("name", &mut timings);
     if let (Some(flat), Some(dir)) = (naming.named_flat(), &opts.local_bank_dir) {
-        let mut doc = cal.document().clone();
+        let mut doc = cal.unfolded(); // a few cells of X_p, not a revolution: not folded
         doc.effects.extend(named.iter().cloned());
         // The local bank: the fitted flat ± 1.5 cells of the original bank in each parameter
         // (a cell: the population span / instances^(1/4)), within the original ranges.
@@ -628,8 +629,11 @@ pub fn diagnose(
         let after = locate(&local, &again)?;
         let after_stage = Stage::of(&again, &after);
         lap("identify again", &mut timings);
+        // The bank's own calibration with the effect: what a regenerated bank is built from.
+        let mut whole = cal.document().clone();
+        whole.effects.extend(named.iter().cloned());
         out.added = Some(Added {
-            calibration_toml: with.document().to_toml_string(),
+            calibration_toml: whole.to_toml_string(),
             local_bank: dir.display().to_string(),
             local_ranges,
             after,

@@ -67,6 +67,14 @@ impl Calibration {
         c
     }
 
+    /// This calibration for simulating passes rather than storing a bank: not folded (how a
+    /// bank stores its population does not apply), so it runs at any speed.
+    pub fn unfolded(&self) -> Calibration {
+        let mut c = self.clone();
+        c.population.fold_to_one_bay = false;
+        c
+    }
+
     /// Output samples per sleeper bay at the run's speed.
     pub fn samples_per_bay(&self) -> f64 {
         self.track.sleeper_spacing_m / (self.run.speed_km_per_h / 3.6) * self.output.sample_rate_hz
