@@ -392,7 +392,7 @@ pub fn check_coverage(bank: &Bank, dir: &Path) -> Result<(), IdentifyError> {
         return Ok(());
     }
     Err(IdentifyError::Invalid(format!(
-        "bank {} does not cover a train: its population has the flat on the {} wheel{} and X_p over {span:.2} m of the {revolution:.2} m wheel revolution. A flat can be on either wheel and strike anywhere along a revolution: build a train-profile bank (`wheelflat calibration --profile train --out train.toml`, then `wheelflat bank generate --calibration train.toml --out train-bank`)",
+        "bank {} does not cover a train: its population has the flat on the {} wheel{} and X_p over {span:.2} m of the {revolution:.2} m wheel revolution. A flat can be on either wheel and strike anywhere along a revolution: build a bank of the site profile, the default (`wheelflat bank generate --out train-bank`; or `wheelflat calibration --out site.toml` to start a calibration from)",
         dir.display(),
         wheels
             .iter()

@@ -399,7 +399,7 @@ pub(super) struct WatchArgs {
 // `train`.
 #[derive(Debug, Args)]
 pub(super) struct TrainArgs {
-    /// Bank directory (a train-profile bank: both wheels, X_p over a revolution).
+    /// Bank directory (of the site profile, the default: both wheels, X_p over a revolution).
     #[arg(long, default_value = "bank")]
     pub bank: PathBuf,
     /// The recording: CSV `time_s,<sensor>_kn,…` over the whole train pass.

@@ -196,7 +196,7 @@ pub struct PopulationParams {
     pub impact_position_m: [f64; 2],
     /// The wheels that may carry the flat, spread over the instances (a fifth low-discrepancy
     /// coordinate picks one per instance). Absent: `vehicle.flat_wheel` only, the paper's
-    /// profile. The train profile (`wheelflat calibration --profile train`) has both, with
+    /// profile. The site profile (the default) has both, with
     /// X_p over one wheel revolution.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub flat_wheels: Option<Vec<WheelPosition>>,
