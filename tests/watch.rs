@@ -363,6 +363,15 @@ fn watch_identifies_a_train_pass_from_its_recording_and_trigger_file() {
         .unwrap();
     let log = String::from_utf8_lossy(&run.stdout);
     assert!(run.status.success(), "{log}");
+    // Every log line starts with its time in RFC 3339 (UTC, milliseconds), not epoch seconds.
+    for line in log.lines() {
+        let t = line.split(' ').next().unwrap();
+        assert!(
+            t.ends_with('Z') && t.len() == "2026-11-26T15:40:12.345Z".len(),
+            "{line}"
+        );
+        chrono::DateTime::parse_from_rfc3339(t).unwrap_or_else(|e| panic!("{line}: {e}"));
+    }
     assert!(
         log.contains("pass.csv ok") && log.contains("train of 12 bogies"),
         "{log}"

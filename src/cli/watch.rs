@@ -148,11 +148,10 @@ fn move_into(path: &Path, dir: &Path) -> Result<PathBuf> {
     Ok(to)
 }
 
+/// The time of a log line: RFC 3339 in UTC with milliseconds, e.g.
+/// `2026-11-26T15:40:12.345Z` (readable, sortable, and parsed by every log tool).
 fn stamp() -> String {
-    let t = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .unwrap_or_default();
-    format!("{:.3}", t.as_secs_f64())
+    chrono::Utc::now().to_rfc3339_opts(chrono::SecondsFormat::Millis, true)
 }
 
 /// Runs the loop until a signal (or, with `--once`, until the inbox is empty).
