@@ -159,7 +159,7 @@ fn main() {
         .par_iter()
         .enumerate()
         .map(|(k, p)| {
-            let mut c = cal.converged_reference().unfolded();
+            let mut c = cal.converged_reference();
             c.run.speed_km_per_h = p.speed;
             let c = c.check().expect("a valid calibration");
             let syn = synthesize_pass(&c, p.flat.as_ref(), p.seed, true, FieldNoise::TABLE)

@@ -23,7 +23,7 @@ fn main() {
     let truths = coverage::truths(&cal, cases, seed);
     println!("rescale {rescale}");
     for delta in offsets {
-        let mut doc = cal.unfolded();
+        let mut doc = cal.document().clone();
         doc.run.speed_km_per_h *= 1.0 + delta / 100.0;
         let meas_cal = doc.check().unwrap();
         let (mut truth, mut judged, mut failed) = (Vec::new(), Vec::new(), 0);

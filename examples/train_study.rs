@@ -6,8 +6,10 @@
 //! `ENV_K=0`: without the envelope points. `REFINE=N`: every wheel with a flat refined with N
 //! simulations (`train --refine`); then also the refined ranges' coverage, median widths and
 //! severity against the bank-only ones.
+#[path = "common/study.rs"]
+mod study;
+
 use std::path::Path;
-use wheelflat::bank::Bank;
 use wheelflat::identify::coverage::severity_class;
 use wheelflat::identify::{Identifier, Measurement};
 use wheelflat::train::{self, TrainSpec};
@@ -19,14 +21,8 @@ fn main() {
         .expect("usage: train_study BANK_DIR [SEEDS] [FIRST_SEED]");
     let seeds: u64 = args.get(2).map_or(20, |s| s.parse().expect("SEEDS"));
     let first: u64 = args.get(3).map_or(1, |s| s.parse().expect("FIRST_SEED"));
-    let bank = Bank::open(Path::new(dir)).expect("open bank");
-    train::check_coverage(&bank, Path::new(dir)).expect("a train-profile bank");
-    let cal = bank
-        .metadata()
-        .calibration
-        .clone()
-        .check()
-        .expect("calibration");
+    let (bank, cal) = study::open_bank(dir);
+    train::check_coverage(&bank, Path::new(dir)).expect("a bank that covers a train");
     let mut settings = cal.identification.clone();
     if let Ok(n) = std::env::var("MC_SAMPLES") {
         settings.monte_carlo_samples = n.parse().expect("MC_SAMPLES is a number");

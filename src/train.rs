@@ -137,8 +137,7 @@ pub fn synthesize_train(
     let sims: Vec<(f64, Simulator, crate::model::Response)> = speeds
         .iter()
         .map(|&kmh| {
-            // Simulated as the flat strikes; how a bank stores its population does not apply.
-            let mut doc = cal.unfolded();
+            let mut doc = cal.document().clone();
             doc.run.speed_km_per_h = kmh;
             // A margin around the windows, as `synth` records: a bogie at another speed than
             // its bank's is read a little before and after them.

@@ -499,7 +499,7 @@ pub fn generate_family(
         let member_cal = at_speed(cal, v)?;
         // A member stored unfolded (its speed has no whole number of samples per bay) holds
         // as many instances as the folded members read.
-        let unfolded = (cal.fold_shifts() + 1) / (member_cal.fold_shifts() + 1);
+        let unfolded = cal.fold_factor() / member_cal.fold_factor();
         let member_opts = GenerateOptions {
             instances: opts.instances * unfolded,
             ..opts.clone()

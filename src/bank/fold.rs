@@ -7,6 +7,7 @@
 
 use super::schema::{sample_column_index, BankMetadata, Parameters, SensorAxis};
 use super::BankError;
+use crate::model::Calibration;
 use std::path::Path;
 
 /// A folded bank's view.
@@ -18,10 +19,6 @@ pub(crate) struct Fold {
     stored_axes: Vec<SensorAxis>,
     /// Per sensor (the calibration's order), its stored axis at each shift 0..=K.
     axes: Vec<Vec<usize>>,
-    /// Sleeper spacing (m), the revolution's start (m) and length (m).
-    bay_m: f64,
-    x0_m: f64,
-    revolution_m: f64,
 }
 
 impl Fold {
@@ -77,9 +74,6 @@ impl Fold {
             shifts,
             stored_axes,
             axes,
-            bay_m: cal.track.sleeper_spacing_m,
-            x0_m: cal.population.impact_position_m[0],
-            revolution_m: cal.circumference_m(),
         };
         let mut shown = meta;
         shown.sensors.truncate(own);
@@ -123,39 +117,35 @@ impl Fold {
         (v % stored, v / stored)
     }
 
-    /// X_p of a stored instance at `stored_m` shifted by `k` bays, on the revolution.
-    pub(crate) fn position_m(&self, stored_m: f64, k: usize) -> f64 {
-        let x = stored_m + k as f64 * self.bay_m;
-        if x >= self.x0_m + self.revolution_m {
-            x - self.revolution_m
-        } else {
-            x
-        }
-    }
-
     /// The presented instance's windows from its stored instance's (stored axes' order) at
     /// shift `k`: the calibration's sensors' order.
     pub(crate) fn windows(&self, stored: &[Vec<f32>], k: usize) -> Vec<Vec<f32>> {
         self.axes.iter().map(|a| stored[a[k]].clone()).collect()
     }
+}
 
-    /// The presented parameters: the stored ones at every shift, instance `k·N + i`.
-    pub(crate) fn expand(&self, p: Parameters) -> Parameters {
-        let n = p.instance.len();
-        let mut out = Parameters::default();
-        for k in 0..self.factor() {
-            out.instance.extend((0..n).map(|i| (k * n + i) as u32));
-            out.length_mm.extend_from_slice(&p.length_mm);
-            out.depth_mm.extend_from_slice(&p.depth_mm);
-            out.curvature_mm.extend_from_slice(&p.curvature_mm);
-            out.impact_position_m
-                .extend(p.impact_position_m.iter().map(|&x| self.position_m(x, k)));
-            out.l0_mm.extend_from_slice(&p.l0_mm);
-            out.flat_wheel.extend_from_slice(&p.flat_wheel);
-            out.peak_contact_kn.extend_from_slice(&p.peak_contact_kn);
-        }
-        out
+/// A folded population's parameters as read: the stored ones (`p`, N instances) at every
+/// whole-bay shift of `cal`, instance `k·N + i` at X_p [`Calibration::folded_position_m`]. The
+/// reader presents a folded bank's parameters so, and generation searches the neighbour graph
+/// over them.
+pub(crate) fn expand(p: Parameters, cal: &Calibration) -> Parameters {
+    let n = p.instance.len();
+    let mut out = Parameters::default();
+    for k in 0..cal.fold_factor() {
+        out.instance.extend((0..n).map(|i| (k * n + i) as u32));
+        out.length_mm.extend_from_slice(&p.length_mm);
+        out.depth_mm.extend_from_slice(&p.depth_mm);
+        out.curvature_mm.extend_from_slice(&p.curvature_mm);
+        out.impact_position_m.extend(
+            p.impact_position_m
+                .iter()
+                .map(|&x| cal.folded_position_m(x, k)),
+        );
+        out.l0_mm.extend_from_slice(&p.l0_mm);
+        out.flat_wheel.extend_from_slice(&p.flat_wheel);
+        out.peak_contact_kn.extend_from_slice(&p.peak_contact_kn);
     }
+    out
 }
 
 /// The (axis, sample) of schema column `col` over `axes`, if it is a sample column.

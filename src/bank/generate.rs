@@ -119,18 +119,18 @@ pub(crate) fn write_file_atomically(path: &Path, bytes: &[u8]) -> Result<(), Ban
 fn population_graph(cal: &CheckedCalibration, opts: &GenerateOptions) -> Vec<u32> {
     let population = Population::new(&cal.stored_population(), opts.instances, opts.seed);
     let mut p = Parameters::default();
-    for k in 0..=cal.fold_shifts() {
-        for i in 0..opts.instances {
-            let s = population.instance(i);
-            p.instance.push((k * opts.instances + i) as u32);
-            p.length_mm.push(s.length_mm);
-            p.depth_mm.push(s.depth_mm);
-            p.curvature_mm.push(s.curvature_mm);
-            p.impact_position_m
-                .push(cal.folded_position_m(s.impact_position_m, k));
-            p.flat_wheel
-                .push(s.wheel.unwrap_or(cal.vehicle.flat_wheel).index() as u8);
-        }
+    for i in 0..opts.instances {
+        let s = population.instance(i);
+        p.instance.push(i as u32);
+        p.length_mm.push(s.length_mm);
+        p.depth_mm.push(s.depth_mm);
+        p.curvature_mm.push(s.curvature_mm);
+        p.impact_position_m.push(s.impact_position_m);
+        p.flat_wheel
+            .push(s.wheel.unwrap_or(cal.vehicle.flat_wheel).index() as u8);
+    }
+    if cal.population.fold_to_one_bay {
+        p = super::fold::expand(p, cal);
     }
     neighbour_graph(&p, &cal.population)
 }
@@ -223,7 +223,7 @@ fn add_missing_aux(
             version,
             aux,
             &manifest.bank_id,
-            manifest.instances * (cal.fold_shifts() + 1),
+            manifest.instances * cal.fold_factor(),
         )
         .is_ok_and(|g| !in_metric_of(g.weights, &cal.population))
     });
@@ -281,6 +281,7 @@ pub fn generate(
             opts.instances
         )));
     }
+    cal.check_fold()?;
     // One writer at a time (the tasks of a job array share the lock): taken before anything
     // is looked at, held to the end.
     std::fs::create_dir_all(out).map_err(io_err(out))?;

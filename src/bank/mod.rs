@@ -107,4 +107,7 @@ pub enum BankError {
     /// Invalid arguments.
     #[error("{0}")]
     Invalid(String),
+    /// The calibration cannot be stored as asked (a folded population it cannot fold).
+    #[error(transparent)]
+    Calibration(#[from] crate::model::CalibrationError),
 }

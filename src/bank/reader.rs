@@ -265,7 +265,7 @@ impl Bank {
 
     /// Number of instances: those stored, times the whole-bay shifts of a folded bank.
     pub fn instances(&self) -> usize {
-        self.stored_instances() * self.fold.as_ref().map_or(1, Fold::factor)
+        self.stored_instances() * self.fold_factor()
     }
 
     /// Number of instances stored (rows of the shard files).
@@ -476,7 +476,7 @@ impl Bank {
     pub fn read_parameters(&self) -> Result<Parameters, BankError> {
         let p = self.read_stored_parameters()?;
         Ok(match &self.fold {
-            Some(fold) => fold.expand(p),
+            Some(_) => super::fold::expand(p, &self.metadata.calibration),
             None => p,
         })
     }

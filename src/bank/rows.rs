@@ -25,7 +25,10 @@ impl Bank {
         let (i, k) = fold.split(instance, self.stored_instances());
         let stored = self.read_stored_instance(i)?;
         let mut parameters = stored.parameters;
-        parameters[3] = fold.position_m(parameters[3], k);
+        parameters[3] = self
+            .metadata
+            .calibration
+            .folded_position_m(parameters[3], k);
         Ok(StoredInstance {
             instance: instance as u32,
             parameters,
@@ -114,10 +117,7 @@ impl Bank {
             )));
         }
         let mut samples = samples.into_iter();
-        let axes = self
-            .fold
-            .as_ref()
-            .map_or(self.metadata.sensors.as_slice(), Fold::stored_axes);
+        let axes = self.stored_axes();
         let forces_kn = axes
             .iter()
             .map(|axis| samples.by_ref().take(axis.samples).collect::<Vec<f32>>())

@@ -127,7 +127,7 @@ pub fn verify(dir: &Path) -> Result<(Manifest, Vec<VerifyProblem>), BankError> {
             Ok((bytes, meta, bank_meta)) => {
                 let footer_rows = meta.metadata().file_metadata().num_rows() as usize;
                 let place = bank_meta.shard;
-                fold_factor = bank_meta.calibration.fold_shifts() + 1;
+                fold_factor = bank_meta.calibration.fold_factor();
                 let mismatch = if bank_meta.bank_id != manifest.bank_id {
                     Some(format!(
                         "belongs to bank {}, the manifest is bank {}",

@@ -17,7 +17,7 @@ pub(super) fn generate(a: &GenerateArgs, simulate_missing: bool) -> Result<()> {
     let cal = load_calibration(a.calibration.as_deref())?;
     // `--instances` counts instances as identification reads them: a folded population
     // stores one in K + 1 ([`crate::model::Calibration::fold_shifts`]).
-    let factor = cal.fold_shifts() + 1;
+    let factor = cal.fold_factor();
     if !a.instances.is_multiple_of(factor) {
         anyhow::bail!(
             "--instances {}: the calibration folds X_p into one sleeper bay and reads each stored instance at {factor} whole-bay shifts, so the count must be a multiple of {factor} (e.g. {})",

@@ -139,35 +139,14 @@ pub(crate) fn read_text(path: &Path, limit: u64, what: &str) -> Result<String> {
 
 /// Reads and checks a calibration file, or returns the built-in defaults.
 pub fn load_calibration(path: Option<&Path>) -> Result<CheckedCalibration> {
-    load(path, false)
-}
-
-/// [`load_calibration`] for simulating passes (`simulate`, `synth`): how a bank stores its
-/// population (`fold_to_one_bay`) does not apply, so a folded calibration at a speed a bank
-/// could not fold at still simulates.
-pub fn load_model_calibration(path: Option<&Path>) -> Result<CheckedCalibration> {
-    load(path, true)
-}
-
-fn load(path: Option<&Path>, unfolded: bool) -> Result<CheckedCalibration> {
-    let (mut doc, at) = match path {
-        None => (Calibration::default(), None),
-        Some(path) => {
-            let text = read_text(path, MAX_SMALL_FILE_BYTES, "calibration file")?;
-            let doc = Calibration::from_toml_str(&text)
-                .with_context(|| format!("in calibration file {}", path.display()))?;
-            (doc, Some(path))
-        }
+    let Some(path) = path else {
+        return Ok(Calibration::default().check()?);
     };
-    if unfolded {
-        doc = doc.unfolded();
-    }
-    match at {
-        None => Ok(doc.check()?),
-        Some(path) => doc
-            .check()
-            .with_context(|| format!("in calibration file {}", path.display())),
-    }
+    let text = read_text(path, MAX_SMALL_FILE_BYTES, "calibration file")?;
+    let doc = Calibration::from_toml_str(&text)
+        .with_context(|| format!("in calibration file {}", path.display()))?;
+    doc.check()
+        .with_context(|| format!("in calibration file {}", path.display()))
 }
 
 /// Writes a file through [`crate::atomic::write_atomically`], naming it in the error (the

@@ -1,7 +1,7 @@
 //! `wheelflat simulate`: one pass over the sensors, written as CSV (and a figure).
 
 use super::args::SimulateArgs;
-use super::{load_model_calibration, write_file};
+use super::{load_calibration, write_file};
 use crate::model::{CheckedCalibration, Record, Response, Simulator};
 use crate::report::response::{flat_title, plot_response, response_csv, response_summary};
 use anyhow::{Context, Result};
@@ -10,7 +10,7 @@ use std::time::Instant;
 
 /// Simulates, writes the CSV, prints the summary and the timing, draws the figure if asked.
 pub(super) fn run(a: &SimulateArgs) -> Result<()> {
-    let cal = load_model_calibration(a.calibration.as_deref())?;
+    let cal = load_calibration(a.calibration.as_deref())?;
     let flat = a.flat.flat()?;
     let started = Instant::now();
     let sim = Simulator::new(&cal)?;

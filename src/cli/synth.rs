@@ -1,7 +1,7 @@
 //! `wheelflat synth`: a field-like measurement of one bogie or a whole train, with its truth.
 
 use super::args::{parse_effect, parse_flat_on, SynthArgs};
-use super::{load_model_calibration, write_file};
+use super::{load_calibration, write_file};
 use crate::identify::synth::{synthesize_with_noise, FieldNoise, Synthetic};
 use crate::model::CheckedCalibration;
 use crate::report::response::flat_title;
@@ -19,7 +19,7 @@ pub(super) fn write_measurement(syn: &Synthetic, csv: &Path, truth: &Path) -> Re
 }
 
 pub(super) fn run(a: &SynthArgs) -> Result<()> {
-    let mut cal = load_model_calibration(a.calibration.as_deref())?;
+    let mut cal = load_calibration(a.calibration.as_deref())?;
     if !a.effects.is_empty() {
         let mut doc = cal.document().clone();
         for e in &a.effects {

@@ -315,17 +315,21 @@ pub fn falsified_by_departure(
 
 /// The detection limit over the instances with L0 `l0_mm` ([`DetectionLimit`]).
 pub fn limit(d: &Departures, l0_mm: &[f64], axes: &[usize], b: &TableBounds) -> DetectionLimit {
-    limit_of(d, l0_mm, axes, b, |_| true)
+    limit_of(l0_mm, &detected(d, axes, b), |_| true)
 }
 
-/// [`limit`] over the instances `keep` accepts (e.g. one wheel's).
-pub fn limit_of(
-    d: &Departures,
-    l0_mm: &[f64],
-    axes: &[usize],
-    b: &TableBounds,
-    keep: impl Fn(usize) -> bool,
-) -> DetectionLimit {
+/// Whether each instance would surely have been detected through the bank axes `axes`
+/// ([`surely_detected`]): computed once a pass, then binned by [`limit_of`] for the whole
+/// population and for each wheel.
+pub fn detected(d: &Departures, axes: &[usize], b: &TableBounds) -> Vec<bool> {
+    (0..d.instances)
+        .map(|i| surely_detected(d, axes, i, b))
+        .collect()
+}
+
+/// [`limit`] over the instances `keep` accepts (e.g. one wheel's), from each instance's
+/// [`detected`].
+pub fn limit_of(l0_mm: &[f64], detected: &[bool], keep: impl Fn(usize) -> bool) -> DetectionLimit {
     let kept = || l0_mm.iter().enumerate().filter(|&(i, _)| keep(i));
     let lowest = kept().map(|(_, &l)| l).fold(f64::INFINITY, f64::min);
     let highest = kept().map(|(_, &l)| l).fold(f64::NEG_INFINITY, f64::max);
@@ -353,7 +357,7 @@ pub fn limit_of(
         n += 1;
         let j = (((l0 - first) / LIMIT_BIN_MM).floor() as usize).min(count - 1);
         bins[j].instances += 1;
-        if surely_detected(d, axes, i, b) {
+        if detected[i] {
             bins[j].detected += 1;
             total += 1;
         }
@@ -538,16 +542,14 @@ mod tests {
             flat_free_kn: vec![vec![20.0; l0.len()]],
         };
         assert_eq!(limit(&d, &l0, &[0], &bounds()).l0_mm, None);
-        let seen = limit_of(&d, &l0, &[0], &bounds(), |i| i % 2 == 0);
+        let flags = detected(&d, &[0], &bounds());
+        let seen = limit_of(&l0, &flags, |i| i % 2 == 0);
         assert_eq!(seen.l0_mm, Some(30.0));
         assert!(
             (seen.share_detected - 0.7).abs() < 0.01,
             "{}",
             seen.share_detected
         );
-        assert_eq!(
-            limit_of(&d, &l0, &[0], &bounds(), |i| i % 2 == 1).l0_mm,
-            None
-        );
+        assert_eq!(limit_of(&l0, &flags, |i| i % 2 == 1).l0_mm, None);
     }
 }

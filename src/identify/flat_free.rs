@@ -37,14 +37,15 @@ impl Identifier {
     /// The detection limit of a pass through the bank axes `axes` ([`DetectionLimit`]).
     pub fn detection_limit(&self, axes: &[usize]) -> Result<DetectionLimit, IdentifyError> {
         let d = self.departures()?;
-        let mut limit = detect::limit(&d, &self.params.l0_mm, axes, &self.bounds);
+        let detected = detect::detected(&d, axes, &self.bounds);
+        let mut limit = detect::limit_of(&self.params.l0_mm, &detected, |_| true);
         let codes = &self.params.flat_wheel;
         if codes.iter().any(|&c| c != codes[0]) {
             limit.wheels = [WheelPosition::Leading, WheelPosition::Trailing]
                 .into_iter()
                 .map(|wheel| WheelLimit {
                     wheel,
-                    l0_mm: detect::limit_of(&d, &self.params.l0_mm, axes, &self.bounds, |i| {
+                    l0_mm: detect::limit_of(&self.params.l0_mm, &detected, |i| {
                         codes[i] as usize == wheel.index()
                     })
                     .l0_mm,

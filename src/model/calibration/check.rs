@@ -444,7 +444,6 @@ impl Calibration {
             }
         }
 
-        self.check_fold()?;
         let checked = CheckedCalibration(self);
         // Windows: each must start at t >= 0 and end while the leading wheel is still on the rail.
         let rate = checked.output.sample_rate_hz;

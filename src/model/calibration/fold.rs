@@ -80,6 +80,25 @@ impl Calibration {
         self.track.sleeper_spacing_m / (self.run.speed_km_per_h / 3.6) * self.output.sample_rate_hz
     }
 
+    /// Instances as read per stored instance: [`Calibration::fold_shifts`] + 1 (1 unfolded).
+    pub fn fold_factor(&self) -> usize {
+        self.fold_shifts() + 1
+    }
+
+    /// Where a folded bank's instance stored at `stored_m` strikes when shifted by `k` whole
+    /// bays: `X_p + k·bay` brought back onto the revolution `impact_position_m` (a strike one
+    /// revolution on is the same flat).
+    pub fn folded_position_m(&self, stored_m: f64, k: usize) -> f64 {
+        let x = stored_m + k as f64 * self.track.sleeper_spacing_m;
+        let [x0, _] = self.population.impact_position_m;
+        let rev = self.circumference_m();
+        if x >= x0 + rev {
+            x - rev
+        } else {
+            x
+        }
+    }
+
     /// Whether a sleeper bay takes a whole number of output samples at the run's speed (a fold
     /// needs one).
     pub fn bay_is_whole_samples(&self) -> bool {
@@ -87,8 +106,10 @@ impl Calibration {
         (per_bay - per_bay.round()).abs() <= WHOLE_SAMPLES
     }
 
-    /// The checks a folded population adds ([`Calibration::check`]).
-    pub(super) fn check_fold(&self) -> Result<(), CalibrationError> {
+    /// The checks a folded population adds before a bank stores it (`bank::generate`): a
+    /// revolution of X_p, a whole number of samples per bay, the stored pads on the rail and
+    /// their windows in the run. Simulating passes does not need them.
+    pub fn check_fold(&self) -> Result<(), CalibrationError> {
         if !self.population.fold_to_one_bay {
             return Ok(());
         }
@@ -152,20 +173,6 @@ impl CheckedCalibration {
     pub fn stored(&self) -> CheckedCalibration {
         CheckedCalibration(self.document().stored())
     }
-
-    /// Where a folded bank's instance `stored` shifted by `k` whole bays strikes: `X_p + k·bay`
-    /// brought back onto the revolution `impact_position_m` (a strike one revolution on is the
-    /// same flat).
-    pub fn folded_position_m(&self, stored_m: f64, k: usize) -> f64 {
-        let x = stored_m + k as f64 * self.track.sleeper_spacing_m;
-        let [x0, _] = self.population.impact_position_m;
-        let rev = self.circumference_m();
-        if x >= x0 + rev {
-            x - rev
-        } else {
-            x
-        }
-    }
 }
 
 #[cfg(test)]
@@ -191,14 +198,16 @@ mod tests {
     fn a_fold_at_a_speed_without_whole_samples_per_bay_is_refused_with_the_speeds_that_fit() {
         let mut c = Calibration::default();
         c.run.speed_km_per_h = 55.0;
-        let msg = c.check().unwrap_err().to_string();
+        // A pass at that speed simulates; a bank of it cannot fold.
+        c.clone().check().unwrap();
+        let msg = c.check_fold().unwrap_err().to_string();
         assert!(
             msg.contains("114.545") && msg.contains("54.7826") && msg.contains("55.2632"),
             "{msg}"
         );
         let mut c = Calibration::default();
         c.population.impact_position_m = [12.0, 13.0];
-        let msg = c.check().unwrap_err().to_string();
+        let msg = c.check_fold().unwrap_err().to_string();
         assert!(msg.contains("one wheel revolution"), "{msg}");
     }
 }
