@@ -53,6 +53,9 @@ pub struct TrainSpec {
     /// Each bogie's speed over the site (km/h), e.g. a train accelerating through it; empty:
     /// every bogie at the calibration's speed.
     pub speeds_km_per_h: Vec<f64>,
+    /// Each bogie's car-body mass as a factor of the calibration's (cars empty or laden);
+    /// empty: every bogie at the calibration's.
+    pub loads: Vec<f64>,
 }
 
 /// The default train's flats: bogie 2 leading (60 × 0.5 mm), bogie 7 trailing (45 × 0.3 mm),
@@ -88,6 +91,7 @@ impl TrainSpec {
             spacing_m: [12.5, 9.0],
             seed,
             speeds_km_per_h: Vec::new(),
+            loads: Vec::new(),
         }
     }
 }
@@ -130,27 +134,33 @@ pub fn synthesize_train(
             .copied()
             .unwrap_or(cal.run.speed_km_per_h)
     };
-    // One simulator (and one good-wheel response) per distinct speed.
-    let mut speeds: Vec<f64> = (0..spec.bogies).map(speed_of).collect();
-    speeds.sort_by(f64::total_cmp);
+    let load_of = |b: usize| spec.loads.get(b).copied().unwrap_or(1.0);
+    // One simulator (and one good-wheel response) per distinct speed and load.
+    let mut speeds: Vec<(f64, f64)> = (0..spec.bogies)
+        .map(|b| (speed_of(b), load_of(b)))
+        .collect();
+    speeds.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
     speeds.dedup();
-    let sims: Vec<(f64, Simulator, crate::model::Response)> = speeds
+    let sims: Vec<((f64, f64), Simulator, crate::model::Response)> = speeds
         .iter()
-        .map(|&kmh| {
+        .map(|&(kmh, load)| {
             let mut doc = cal.document().clone();
             doc.run.speed_km_per_h = kmh;
+            doc.vehicle.car_body_mass_kg *= load;
             // A margin around the windows, as `synth` records: a bogie at another speed than
             // its bank's is read a little before and after them.
             doc.output.window_samples += 2 * MARGIN_SAMPLES;
             let c = doc.check().map_err(|e| SimError::Setup(e.to_string()))?;
             let sim = Simulator::new(&c)?;
             let good = sim.run(None, Record::default())?;
-            Ok((kmh, sim, good))
+            Ok(((kmh, load), sim, good))
         })
         .collect::<Result<_, SimError>>()?;
     let sim_of = |b: usize| {
         sims.iter()
-            .find(|(kmh, ..)| kmh.to_bits() == speed_of(b).to_bits())
+            .find(|((kmh, load), ..)| {
+                kmh.to_bits() == speed_of(b).to_bits() && load.to_bits() == load_of(b).to_bits()
+            })
             .expect("every bogie's speed has a simulator")
     };
     // Where each bogie's record starts on the recording clock (s): its centre's distance
@@ -221,8 +231,11 @@ pub fn synthesize_train(
         "# wheelflat synthetic train: {} bogies (see the truth JSON)\n",
         spec.bogies
     );
-    if speeds.len() == 1 {
-        csv += &format!("# speed_km_per_h = {}\n", speeds[0]);
+    if speeds
+        .iter()
+        .all(|v| v.0.to_bits() == speeds[0].0.to_bits())
+    {
+        csv += &format!("# speed_km_per_h = {}\n", speeds[0].0);
     }
     csv += "time_s";
     for n in &names {
@@ -444,6 +457,9 @@ pub struct BogieResult {
     pub detection: Detection,
     /// The identification, when a flat was detected.
     pub identification: Option<Identification>,
+    /// The wheel load its part of the record shows, and the bank's it was compared at.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load: Option<crate::identify::load::LoadEstimate>,
     /// Milliseconds spent on the bogie.
     pub ms: f64,
 }
@@ -525,6 +541,7 @@ pub fn identify_train(
         // Detection first, in the identification itself: the same step as `identify` and
         // `watch`.
         let mut id = identifier.identify(&m, None, Extras::NONE)?;
+        let load = id.load.clone();
         let detection = id
             .detection
             .take()
@@ -583,6 +600,7 @@ pub fn identify_train(
             speed_km_per_h: bogie.speed_km_per_h,
             bank_speed_km_per_h: identifier.bank().metadata().calibration.run.speed_km_per_h,
             detection,
+            load,
             identification,
             ms: started.elapsed().as_secs_f64() * 1e3,
         });

@@ -22,7 +22,7 @@ fn locate(id: &Identifier, cal: &CheckedCalibration, effects: Vec<Effect>) -> di
     let flat = Flat::from_mm(58.0, 0.47, 0.04, 12.41).unwrap();
     let syn = synth::synthesize(&hidden, &flat, 5, true).unwrap();
     let m = Measurement::from_csv(Path::new("m.csv"), &syn.csv, 2500.0).unwrap();
-    let ident = id.identify(&m, None, Extras::NONE).unwrap();
+    let ident = id.identify(&m, None, Extras::AS_RECORDED).unwrap();
     diagnose::locate(id, &ident).unwrap()
 }
 
@@ -449,7 +449,7 @@ fn noise_above_the_table_is_named_with_its_sigma_and_rho() {
         let syn =
             synth::synthesize_with_noise(&converged, &flat, 50 + k as u64, true, noise).unwrap();
         let m = Measurement::from_csv(Path::new("noisy.csv"), &syn.csv, 2500.0).unwrap();
-        let ident = id.identify(&m, None, Extras::NONE).unwrap();
+        let ident = id.identify(&m, None, Extras::AS_RECORDED).unwrap();
         let opts = diagnose::Options::default();
         let out =
             diagnose::diagnose(&id, &m, None, &ident, &opts, &wheelflat::bank::Quiet).unwrap();
@@ -531,6 +531,6 @@ fn the_site_noise_is_measured_from_passes_into_a_calibration() {
     );
     let id = Identifier::new(Bank::open(&dir).unwrap(), site.identification.clone()).unwrap();
     let m = Measurement::from_csv(&a, &good.csv, 2500.0).unwrap();
-    let r = id.identify(&m, None, Extras::NONE).unwrap();
+    let r = id.identify(&m, None, Extras::AS_RECORDED).unwrap();
     assert!(!r.detection.unwrap().flat_detected, "{}", r.summary);
 }

@@ -7,9 +7,8 @@ use common::{narrow_calibration, options, small_calibration, wheelflat};
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
-use wheelflat::bank::family::{
-    at_speed, generate_family, read_family_manifest, Family, SpeedBand, FAMILY_FILE,
-};
+use wheelflat::bank::family::{read_family_manifest, Family, SpeedBand, FAMILY_FILE};
+use wheelflat::bank::family_write::{at_speed, generate_family};
 use wheelflat::bank::{GenerateOptions, Outcome, Quiet};
 use wheelflat::identify::coverage::{self, judge, severity_limits};
 use wheelflat::identify::family::Members;
@@ -29,6 +28,7 @@ fn narrow_family() -> &'static (PathBuf, CheckedCalibration) {
             &cal,
             &dir,
             band,
+            None,
             &options(2000, 1000),
             &Quiet,
             &|_, _, _| {},
@@ -79,8 +79,8 @@ fn build(
     dir: &Path,
     band: SpeedBand,
     opts: &GenerateOptions,
-) -> wheelflat::bank::family::FamilyOutcome {
-    generate_family(cal, dir, band, opts, &Quiet, &|_, _, _| {}).unwrap()
+) -> wheelflat::bank::family_write::FamilyOutcome {
+    generate_family(cal, dir, band, None, opts, &Quiet, &|_, _, _| {}).unwrap()
 }
 
 #[test]
@@ -148,7 +148,7 @@ fn a_family_pins_its_members_picks_by_speed_and_refuses_tampering() {
     let e = family.members[1].open().unwrap_err().to_string();
     assert!(e.contains("the family manifest pins"), "{e}");
     // Nor is a manifest changed after its CURRENT was written pinned anew.
-    let e = wheelflat::bank::family::write_family_manifest(&dir, band, 2500.0)
+    let e = wheelflat::bank::family_write::write_family_manifest(&dir, band, None, 2500.0)
         .unwrap_err()
         .to_string();
     assert!(e.contains("CURRENT says"), "{e}");
@@ -169,7 +169,7 @@ fn a_family_pins_its_members_picks_by_speed_and_refuses_tampering() {
     assert!(Family::open(&dir).unwrap().0.members[2].open().is_ok());
 
     // A plain bank is not generated into a family's directory, nor a family into a bank's.
-    let e = generate_family(&cal, &member, band, &opts, &Quiet, &|_, _, _| {})
+    let e = generate_family(&cal, &member, band, None, &opts, &Quiet, &|_, _, _| {})
         .unwrap_err()
         .to_string();
     assert!(e.contains("holds a single bank"), "{e}");
@@ -317,6 +317,7 @@ fn each_bogie_of_an_accelerating_train_is_compared_with_the_member_at_its_speed(
         spacing_m: [12.5, 9.0],
         seed: 3,
         speeds_km_per_h: vec![47.6, 48.3, 49.2, 50.4],
+        loads: Vec::new(),
     };
     let syn = train::synthesize_train(cal, &spec).unwrap();
     assert!(!syn.csv.contains("speed_km_per_h"), "no one speed line");

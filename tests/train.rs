@@ -73,7 +73,7 @@ fn flats_are_found_on_the_right_wheels_and_good_wheels_stay_good() {
     let csv = wheelflat::report::train::table_csv(&r);
     assert_eq!(csv.lines().count(), 25);
     assert!(csv.starts_with(
-        "car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity,speed_km_per_h,bank_speed_km_per_h,refined_l0_min_mm,refined_l0_max_mm\n"
+        "car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity,speed_km_per_h,bank_speed_km_per_h,refined_l0_min_mm,refined_l0_max_mm,load_kn,load_min_kn,load_max_kn,bank_load_kn\n"
     ));
 }
 

@@ -5,7 +5,7 @@
 # The extra args (e.g. --instances, --seed, --shard-size) must be the same for both steps:
 # they determine the bank's identity. WHEELFLAT_SBATCH_ARGS adds sbatch options to both
 # submissions (e.g. "--cpus-per-task=4 --partition=short"); they override the scripts'
-# #SBATCH lines. With `--speeds FROM:TO:STEP` (a bank family) every task builds its part of
+# #SBATCH lines. With `--speeds FROM:TO:STEP` and/or `--loads FROM:TO:STEP` (a bank family) every task builds its part of
 # every member, and the merge completes each member and then writes family.json.
 set -euo pipefail
 n=${1:?number of shards}

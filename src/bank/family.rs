@@ -8,6 +8,10 @@
 //! …
 //! ```
 //!
+//! A family over loads as well (`--loads`, [`super::loads`]) has a member per speed and load
+//! (`DIR/speed-50.0-load-0.60/`, …) and the format [`FAMILY_FORMAT_LOADS`]; a pass is compared
+//! with the members at its speed, the one nearest the load its record shows.
+//!
 //! `family.json` is the family's `CURRENT`: it pins each member's version directory and its
 //! manifest's SHA-256, and is replaced only when every member is complete, so a reader never
 //! mixes members of two calibrations however long a nightly regeneration takes. A member is
@@ -17,11 +21,11 @@
 //! [`SPEED_TOLERANCE`] of it (relative); outside the band the pass is refused with the band
 //! named. A single bank is a family of one member at its speed.
 
-use super::generate::{generate, GenerateObserver, GenerateOptions, Outcome};
+use super::loads::{nearest_however_far, nearest_load, LoadBand};
+use super::loads::{LOAD_TOLERANCE_HEAVIER, LOAD_TOLERANCE_LIGHTER};
 use super::schema::{sha256_hex, MANIFEST};
-use super::version::{read_current, Current};
+use super::version::Current;
 use super::{Bank, BankError};
-use crate::model::CheckedCalibration;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -29,6 +33,8 @@ use std::path::{Path, PathBuf};
 pub const FAMILY_FILE: &str = "family.json";
 /// The family manifest's format.
 pub const FAMILY_FORMAT: &str = "wheelflat-bank-family-1";
+/// The format of a family over loads as well (older wheelflats refuse it by its name).
+pub const FAMILY_FORMAT_LOADS: &str = "wheelflat-bank-family-2";
 /// How far (relative) a pass's speed may be from the member it is compared with, the pass's
 /// time axis scaled to the member's speed ([`crate::identify::Measurement::at_speed`]):
 /// measured 2026-11-24 (`examples/speed_study`, 100 cases, docs/bank.md "Speed"): coverage
@@ -142,9 +148,13 @@ impl std::fmt::Display for SpeedBand {
     }
 }
 
-/// The directory name of the member at `speed` km/h.
-pub fn member_dir_name(speed_km_per_h: f64) -> String {
-    format!("speed-{speed_km_per_h:.1}")
+/// The directory name of the member at `speed` km/h (and, in a family over loads, at
+/// `load` × the calibration's car-body mass).
+pub fn member_dir_name(speed_km_per_h: f64, load: Option<f64>) -> String {
+    match load {
+        None => format!("speed-{speed_km_per_h:.1}"),
+        Some(f) => format!("speed-{speed_km_per_h:.1}-load-{f:.2}"),
+    }
 }
 
 /// One member as `family.json` lists it.
@@ -160,6 +170,12 @@ pub struct MemberEntry {
     pub manifest_sha256: String,
     /// Its bank id.
     pub bank_id: String,
+    /// In a family over loads: its factor of the band's car-body mass.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load_factor: Option<f64>,
+    /// In a family over loads: its static wheel load (kN).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wheel_load_kn: Option<f64>,
 }
 
 /// `family.json`.
@@ -169,10 +185,13 @@ pub struct FamilyManifest {
     pub format: String,
     /// The band the members were generated for.
     pub band: SpeedBand,
+    /// The load band, in a family over loads ([`FAMILY_FORMAT_LOADS`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub loads: Option<LoadBand>,
     /// The members' sample rate (Hz), the same for all: a measurement is read on it before
     /// its speed picks a member.
     pub sample_rate_hz: f64,
-    /// The members, by increasing speed.
+    /// The members, by increasing speed (and, at one speed, increasing load).
     pub members: Vec<MemberEntry>,
 }
 
@@ -181,6 +200,12 @@ pub struct FamilyManifest {
 pub struct Member {
     /// Train speed (km/h).
     pub speed_km_per_h: f64,
+    /// Its static wheel load (kN): what a pass's load is compared with.
+    pub wheel_load_kn: f64,
+    /// Its car-body mass (kg), in a family over loads (checked when it is opened).
+    pub car_body_mass_kg: Option<f64>,
+    /// Its factor of the family's car-body mass, in a family over loads.
+    pub load_factor: Option<f64>,
     /// The family's sample rate (Hz).
     pub sample_rate_hz: f64,
     /// The bank directory (for messages).
@@ -206,6 +231,15 @@ impl Member {
                 ),
             });
         }
+        let mass = cal.vehicle.car_body_mass_kg;
+        if let Some(listed) = self.car_body_mass_kg.filter(|m| (m - mass).abs() > 1e-6) {
+            return Err(BankError::Corrupt {
+                path: self.current.version.join(MANIFEST),
+                message: format!(
+                    "simulated with a {mass} kg car body, but the family lists it at {listed} kg"
+                ),
+            });
+        }
         Ok(bank)
     }
 }
@@ -217,6 +251,8 @@ pub struct Family {
     pub dir: PathBuf,
     /// The band, for a family (`None`: a single bank).
     pub band: Option<SpeedBand>,
+    /// The load band, for a family over loads.
+    pub loads: Option<LoadBand>,
     /// Members by increasing speed.
     pub members: Vec<Member>,
     /// The members' sample rate (Hz).
@@ -244,9 +280,13 @@ impl Family {
             let family = Family {
                 dir: dir.to_path_buf(),
                 band: None,
+                loads: None,
                 sample_rate_hz: cal.output.sample_rate_hz,
                 members: vec![Member {
                     speed_km_per_h: cal.run.speed_km_per_h,
+                    wheel_load_kn: cal.vehicle.static_wheel_load_n() / 1e3,
+                    car_body_mass_kg: None,
+                    load_factor: None,
                     sample_rate_hz: cal.output.sample_rate_hz,
                     dir: dir.to_path_buf(),
                     current: Current {
@@ -268,6 +308,12 @@ impl Family {
                 let current = read_pin(&member_dir, &m.version, &m.manifest_sha256)?;
                 Ok(Member {
                     speed_km_per_h: m.speed_km_per_h,
+                    wheel_load_kn: m.wheel_load_kn.unwrap_or(f64::NAN),
+                    car_body_mass_kg: manifest
+                        .loads
+                        .zip(m.load_factor)
+                        .map(|(b, f)| b.car_body_mass_kg * f),
+                    load_factor: m.load_factor,
                     sample_rate_hz: manifest.sample_rate_hz,
                     dir: member_dir,
                     current,
@@ -278,6 +324,7 @@ impl Family {
             Family {
                 dir: dir.to_path_buf(),
                 band: Some(manifest.band),
+                loads: manifest.loads,
                 sample_rate_hz: manifest.sample_rate_hz,
                 members,
                 key: sha,
@@ -356,6 +403,61 @@ impl Family {
     }
 }
 
+impl Family {
+    /// The members at member `k`'s speed, by increasing load (one, unless the family is over
+    /// loads as well).
+    pub fn at_speed_of(&self, k: usize) -> Vec<usize> {
+        let v = self.members[k].speed_km_per_h;
+        (0..self.members.len())
+            .filter(|&j| (self.members[j].speed_km_per_h - v).abs() < 1e-9)
+            .collect()
+    }
+
+    /// The member among `at_speed` (as [`Family::at_speed_of`] gives them, with their static
+    /// wheel loads `loads_kn`) a pass showing `shown_kn` a wheel is compared with
+    /// ([`nearest_load`]); otherwise an error naming the loads covered
+    /// (`nearest`: the nearest however far, as diagnosis wants).
+    pub fn member_for_load(
+        &self,
+        at_speed: &[usize],
+        loads_kn: &[f64],
+        shown_kn: f64,
+        nearest: bool,
+    ) -> Result<usize, SpeedError> {
+        match nearest_load(loads_kn, shown_kn) {
+            Ok(j) => Ok(at_speed[j]),
+            Err(_) if nearest => Ok(at_speed[nearest_however_far(loads_kn, shown_kn)]),
+            Err(range) => {
+                let covered = match (self.loads, loads_kn) {
+                    (Some(b), _) => format!(
+                        "the family {} covers {b} ({:.1}–{:.1} kN a wheel)",
+                        self.dir.display(),
+                        loads_kn[0],
+                        loads_kn[loads_kn.len() - 1]
+                    ),
+                    (None, [w, ..]) => format!(
+                        "the bank {} is simulated at {w:.1} kN a wheel",
+                        self.dir.display()
+                    ),
+                    (None, []) => unreachable!("a family has members"),
+                };
+                Err(SpeedError(format!(
+                    "load {shown_kn:.1} kN a wheel: {covered}, and a pass may be at most {:.1} % lighter or {:.0} % heavier than a member ({:.1}–{:.1} kN in all); {}",
+                    LOAD_TOLERANCE_LIGHTER * 100.0,
+                    LOAD_TOLERANCE_HEAVIER * 100.0,
+                    range[0],
+                    range[1],
+                    if self.loads.is_some() {
+                        "regenerate with a load band that includes it (`wheelflat bank generate --loads FROM:TO:STEP`)"
+                    } else {
+                        "build a family over the loads your vehicles carry with `wheelflat bank generate --loads FROM:TO:STEP` (factors of the car-body mass, e.g. 0.6:1.1:0.5)"
+                    }
+                )))
+            }
+        }
+    }
+}
+
 /// Reads and checks `DIR/family.json`; with its SHA-256.
 pub fn read_family_manifest(dir: &Path) -> Result<(FamilyManifest, String), BankError> {
     let path = dir.join(FAMILY_FILE);
@@ -376,33 +478,53 @@ pub fn read_family_manifest(dir: &Path) -> Result<(FamilyManifest, String), Bank
     let bytes = std::fs::read(&path).map_err(io)?;
     let m: FamilyManifest =
         serde_json::from_slice(&bytes).map_err(|e| bad(format!("not a family manifest: {e}")))?;
-    if m.format != FAMILY_FORMAT {
+    let format = if m.loads.is_some() {
+        FAMILY_FORMAT_LOADS
+    } else {
+        FAMILY_FORMAT
+    };
+    if m.format != format {
         return Err(bad(format!(
-            "format `{}`: this wheelflat reads `{FAMILY_FORMAT}`",
-            m.format.chars().take(60).collect::<String>()
+            "format `{}`: this wheelflat reads `{format}` for a family {} loads",
+            m.format.chars().take(60).collect::<String>(),
+            if m.loads.is_some() { "over" } else { "without" }
         )));
     }
     m.band.check().map_err(|e| bad(format!("band: {e}")))?;
     if !(m.sample_rate_hz.is_finite() && (1.0..=1e6).contains(&m.sample_rate_hz)) {
         return Err(bad(format!("sample rate {} Hz", m.sample_rate_hz)));
     }
-    let speeds = m.band.speeds();
-    if m.members.len() != speeds.len() {
+    if let Some(b) = &m.loads {
+        // The band's own checks need the vehicle's other masses: the members' loads are
+        // checked below instead.
+        if !(b.car_body_mass_kg > 0.0 && b.car_body_mass_kg.is_finite()) || b.step <= 0.0 {
+            return Err(bad(format!("load band {b}")));
+        }
+    }
+    let grid = member_grid(&m.band, m.loads.as_ref());
+    if m.members.len() != grid.len() {
         return Err(bad(format!(
-            "{} members listed, the band {} has {}",
+            "{} members listed, the band {}{} has {}",
             m.members.len(),
             m.band,
-            speeds.len()
+            m.loads.map(|b| format!(" × {b}")).unwrap_or_default(),
+            grid.len()
         )));
     }
-    for (e, v) in m.members.iter().zip(&speeds) {
-        if (e.speed_km_per_h - v).abs() > 1e-9 || e.dir != member_dir_name(*v) {
+    for (e, (v, f)) in m.members.iter().zip(&grid) {
+        let load_ok = match f {
+            None => e.load_factor.is_none(),
+            Some(f) => {
+                e.load_factor.is_some_and(|x| (x - f).abs() < 1e-9)
+                    && e.wheel_load_kn.is_some_and(|w| w.is_finite() && w > 0.0)
+            }
+        };
+        if (e.speed_km_per_h - v).abs() > 1e-9 || e.dir != member_dir_name(*v, *f) || !load_ok {
             return Err(bad(format!(
-                "member `{}` at {} km/h: the band {} has `{}` at {v} km/h there",
+                "member `{}` at {} km/h: the band has `{}` there",
                 e.dir.chars().take(60).collect::<String>(),
                 e.speed_km_per_h,
-                m.band,
-                member_dir_name(*v)
+                member_dir_name(*v, *f)
             )));
         }
     }
@@ -415,130 +537,14 @@ fn read_pin(member_dir: &Path, version: &str, sha: &str) -> Result<Current, Bank
     super::version::pinned(member_dir, &path, version, sha)
 }
 
-/// The entry of member `dir` (a complete bank) at `speed`: its `CURRENT`, as pinned now.
-pub fn member_entry(dir: &Path, speed_km_per_h: f64) -> Result<MemberEntry, BankError> {
-    let c = read_current(dir)?.ok_or_else(|| BankError::NotABank {
-        dir: dir.to_path_buf(),
-    })?;
-    // Only a manifest that hashes to what the member's CURRENT says is pinned.
-    let manifest = super::version::manifest_as_stated(&c, "CURRENT says")?;
-    let manifest_sha256 = match &c.manifest_sha256 {
-        Some(s) => s.clone(),
-        None => super::version::manifest_sha256(&c.version)?,
+/// The members of a band (and load band), in order: speed, then load factor.
+pub fn member_grid(band: &SpeedBand, loads: Option<&LoadBand>) -> Vec<(f64, Option<f64>)> {
+    let factors: Vec<Option<f64>> = match loads {
+        None => vec![None],
+        Some(b) => b.factors().into_iter().map(Some).collect(),
     };
-    Ok(MemberEntry {
-        speed_km_per_h,
-        dir: member_dir_name(speed_km_per_h),
-        version: c
-            .version
-            .file_name()
-            .map(|n| n.to_string_lossy().to_string())
-            .unwrap_or_default(),
-        manifest_sha256,
-        bank_id: manifest.bank_id,
-    })
-}
-
-/// Writes `DIR/family.json` (atomically) for `band`, pinning every member's `CURRENT` as it
-/// is now; every member must be complete.
-pub fn write_family_manifest(
-    dir: &Path,
-    band: SpeedBand,
-    sample_rate_hz: f64,
-) -> Result<FamilyManifest, BankError> {
-    let members = band
-        .speeds()
+    band.speeds()
         .into_iter()
-        .map(|v| member_entry(&dir.join(member_dir_name(v)), v))
-        .collect::<Result<Vec<_>, _>>()?;
-    let m = FamilyManifest {
-        format: FAMILY_FORMAT.into(),
-        band,
-        sample_rate_hz,
-        members,
-    };
-    let mut text = serde_json::to_string_pretty(&m).expect("a family manifest serialises");
-    text.push('\n');
-    super::generate::write_file_atomically(&dir.join(FAMILY_FILE), text.as_bytes())?;
-    Ok(m)
-}
-
-/// What a family generation did, member by member.
-#[derive(Debug, Clone, PartialEq)]
-pub struct FamilyOutcome {
-    /// Each member's speed, outcome and the seconds it took.
-    pub members: Vec<(f64, Outcome, f64)>,
-    /// Whether `family.json` was written (every member complete); `false` after `--shard`
-    /// runs, which leave it to `bank merge`.
-    pub manifest_written: bool,
-}
-
-/// Generates (or, with `opts.simulate_missing` false, merges) every member of `band` in
-/// `dir`, one after the other, each a bank of `cal` at its speed with the same options
-/// (`--shard I/N` takes part I of every member); then, when all are complete, writes
-/// `family.json`. `member_started` is told each member before its work starts.
-pub fn generate_family(
-    cal: &CheckedCalibration,
-    dir: &Path,
-    band: SpeedBand,
-    opts: &GenerateOptions,
-    observer: &dyn GenerateObserver,
-    member_started: &dyn Fn(usize, usize, f64),
-) -> Result<FamilyOutcome, BankError> {
-    band.check().map_err(BankError::Invalid)?;
-    if read_current(dir)?.is_some() {
-        return Err(BankError::Invalid(format!(
-            "{} holds a single bank (CURRENT); a family needs a directory of its own",
-            dir.display()
-        )));
-    }
-    let speeds = band.speeds();
-    let mut members = Vec::with_capacity(speeds.len());
-    for (k, &v) in speeds.iter().enumerate() {
-        member_started(k, speeds.len(), v);
-        let member_cal = at_speed(cal, v)?;
-        // A member stored unfolded (its speed has no whole number of samples per bay) holds
-        // as many instances as the folded members read.
-        let unfolded = cal.fold_factor() / member_cal.fold_factor();
-        let member_opts = GenerateOptions {
-            instances: opts.instances * unfolded,
-            ..opts.clone()
-        };
-        let opts = &member_opts;
-        let member_dir = dir.join(member_dir_name(v));
-        std::fs::create_dir_all(&member_dir).map_err(|source| BankError::Io {
-            path: member_dir.clone(),
-            source,
-        })?;
-        let started = std::time::Instant::now();
-        let outcome = generate(&member_cal, &member_dir, opts, observer)?;
-        members.push((v, outcome, started.elapsed().as_secs_f64()));
-    }
-    let complete = members
-        .iter()
-        .all(|(_, o, _)| !matches!(o, Outcome::ShardDone { .. }));
-    if complete {
-        write_family_manifest(dir, band, cal.output.sample_rate_hz)?;
-    }
-    Ok(FamilyOutcome {
-        members,
-        manifest_written: complete,
-    })
-}
-
-/// The calibration `cal` at train speed `speed` km/h (a family member's), checked.
-pub fn at_speed(
-    cal: &CheckedCalibration,
-    speed_km_per_h: f64,
-) -> Result<CheckedCalibration, BankError> {
-    let mut doc = cal.document().clone();
-    doc.run.speed_km_per_h = speed_km_per_h;
-    // A folded population needs a whole number of samples per sleeper bay; a member at a speed
-    // without one stores the same instances over the whole revolution instead (docs/bank.md
-    // "Folded banks": four times coarser in X_p).
-    if doc.population.fold_to_one_bay && !doc.bay_is_whole_samples() {
-        doc.population.fold_to_one_bay = false;
-    }
-    doc.check()
-        .map_err(|e| BankError::Invalid(format!("at {speed_km_per_h} km/h: {e}")))
+        .flat_map(|v| factors.iter().map(move |&f| (v, f)))
+        .collect()
 }

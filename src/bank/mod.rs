@@ -17,10 +17,12 @@
 
 pub mod departures;
 pub mod family;
+pub mod family_write;
 mod fold;
 pub mod generate;
 pub mod info;
 pub mod layout;
+pub mod loads;
 pub mod lock;
 pub mod neighbours;
 pub mod population;

@@ -203,6 +203,10 @@ pub(super) struct GenerateArgs {
     /// family directory remembers its band: without this flag it is regenerated as it is.
     #[arg(long, value_parser = SpeedBand::parse)]
     pub speeds: Option<SpeedBand>,
+    /// A family over loads too: members at car-body masses FROM:TO:STEP × the calibration's
+    /// (e.g. `0.6:1.1:0.5`), at every speed (the calibration's, without --speeds).
+    #[arg(long, value_name = "FROM:TO:STEP")]
+    pub loads: Option<String>,
 }
 
 impl GenerateArgs {
@@ -220,6 +224,7 @@ impl GenerateArgs {
             compression: Codec::None,
             encoding: ValueEncoding::Plain,
             speeds: None,
+            loads: None,
         }
     }
 }
@@ -309,6 +314,10 @@ pub(super) struct SynthArgs {
     /// accelerating through it: `47.6,48.3,49.2,50.4` (default: all at the calibration's).
     #[arg(long = "bogie-speeds", value_delimiter = ',', value_parser = parse_speed, requires = "train")]
     pub bogie_speeds: Vec<f64>,
+    /// Each bogie's car-body mass as a factor of the calibration's (empty or laden cars), one
+    /// per bogie: `1,1,0.6,0.6` (default: all at the calibration's).
+    #[arg(long = "bogie-loads", value_delimiter = ',', requires = "train")]
+    pub bogie_loads: Vec<f64>,
 }
 
 // A bank and a measurement to identify against it.

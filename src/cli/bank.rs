@@ -45,19 +45,34 @@ pub(super) fn generate(a: &GenerateArgs, simulate_missing: bool) -> Result<()> {
         .context("cannot start the worker threads")?;
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create bank directory {}", a.out.display()))?;
-    // A family directory remembers its band.
-    let band = match a.speeds {
-        Some(b) => Some(b),
-        None if a.out.join(FAMILY_FILE).is_file() => Some(
+    // A family directory remembers its band (and loads).
+    let stored = match a.out.join(FAMILY_FILE).is_file() {
+        true => Some(
             read_family_manifest(&a.out)
                 .with_context(|| format!("bank family {}", a.out.display()))?
-                .0
-                .band,
+                .0,
         ),
-        None => None,
+        false => None,
+    };
+    let loads = match &a.loads {
+        Some(text) => Some(
+            bank::loads::LoadBand::parse(text, &cal.vehicle)
+                .map_err(|e| anyhow::anyhow!("--loads {e}"))?,
+        ),
+        None => stored.as_ref().and_then(|m| m.loads),
+    };
+    let band = match (a.speeds, &stored) {
+        (Some(b), _) => Some(b),
+        (None, Some(m)) => Some(m.band),
+        // Loads alone: one speed, the calibration's.
+        (None, None) => loads.map(|_| SpeedBand {
+            from_km_per_h: cal.run.speed_km_per_h,
+            to_km_per_h: cal.run.speed_km_per_h,
+            step_km_per_h: 1.0,
+        }),
     };
     if let Some(band) = band {
-        return generate_family(a, &cal, &opts, band, threads, &pool);
+        return generate_family(a, &cal, &opts, (band, loads), threads, &pool);
     }
     let progress = Progress::new().with_terminal();
     let started = Instant::now();
@@ -74,35 +89,39 @@ fn generate_family(
     a: &GenerateArgs,
     cal: &crate::model::CheckedCalibration,
     opts: &GenerateOptions,
-    band: SpeedBand,
+    (band, loads): (SpeedBand, Option<bank::loads::LoadBand>),
     threads: usize,
     pool: &rayon::ThreadPool,
 ) -> Result<()> {
     let started = Instant::now();
-    let speeds = band.speeds();
+    let count = bank::family::member_grid(&band, loads.as_ref()).len();
     let members = |n: usize| format!("{n} member{}", if n == 1 { "" } else { "s" });
+    let band_words = match loads {
+        Some(l) => format!("{band} × {l}"),
+        None => band.to_string(),
+    };
     println!(
-        "bank family {}: {}, {band}",
+        "bank family {}: {}, {band_words}",
         a.out.display(),
-        members(speeds.len())
+        members(count)
     );
     let progress = Progress::new().with_terminal();
-    let announce = |k: usize, n: usize, v: f64| {
-        eprintln!("member {}/{n}: {v} km/h", k + 1);
+    let announce = |k: usize, n: usize, name: &str| {
+        eprintln!("member {}/{n}: {name}", k + 1);
     };
-    let outcome = pool
-        .install(|| bank::family::generate_family(cal, &a.out, band, opts, &progress, &announce));
+    let outcome = pool.install(|| {
+        bank::family_write::generate_family(cal, &a.out, band, loads, opts, &progress, &announce)
+    });
     progress.finish();
     let outcome = outcome.with_context(|| format!("bank family {}", a.out.display()))?;
-    for (v, o, secs) in &outcome.members {
-        let dir = a.out.join(bank::family::member_dir_name(*v));
-        report_outcome(a, &dir, o, *secs, threads);
+    for (name, o, secs) in &outcome.members {
+        report_outcome(a, &a.out.join(name), o, *secs, threads);
     }
     let secs = started.elapsed().as_secs_f64();
     if outcome.manifest_written {
         println!(
-            "bank family complete: {} ({band}) in {secs:.1} s; {} pins each member's version",
-            members(speeds.len()),
+            "bank family complete: {} ({band_words}) in {secs:.1} s; {} pins each member's version",
+            members(count),
             a.out.join(FAMILY_FILE).display()
         );
     } else {

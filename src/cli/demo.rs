@@ -72,6 +72,7 @@ pub(super) fn run(out: &Path, bank_dir: &Path, instances: usize) -> Result<()> {
         Extras {
             baselines: true,
             curves: true,
+            as_recorded: false,
         },
     )?;
     // The refined answer beside the bank-only one (`identify --refine`).

@@ -29,7 +29,8 @@ pub(super) fn run(a: &DiagnoseArgs) -> Result<()> {
         println!("{note}");
     }
     let sensors = i.sensors.as_deref();
-    let id = identifier.identify(&m, sensors, Extras::NONE)?;
+    // The record as recorded: diagnosis asks whether the model explains it.
+    let id = identifier.identify(&m, sensors, Extras::AS_RECORDED)?;
     eprintln!(
         "identified: {} of {} instances kept; diagnosing (fits by re-simulation, a minute at most)",
         id.cms.len(),

@@ -18,7 +18,19 @@ fn open(dir: &Path) -> Result<Family> {
 }
 
 fn band(f: &Family) -> String {
-    f.band.map(|b| b.to_string()).unwrap_or_default()
+    let speeds = f.band.map(|b| b.to_string()).unwrap_or_default();
+    match f.loads {
+        Some(l) => format!("{speeds} × {l}"),
+        None => speeds,
+    }
+}
+
+/// A member in a line: its speed, and its wheel load in a family over loads.
+fn member_words(f: &Family, m: &crate::bank::family::Member) -> String {
+    match f.loads {
+        Some(_) => format!("{:>6.1} km/h {:>5.1} kN", m.speed_km_per_h, m.wheel_load_kn),
+        None => format!("{:>6.1} km/h", m.speed_km_per_h),
+    }
 }
 
 /// `bank info` of a family: the band, then one line per member.
@@ -37,8 +49,8 @@ pub(super) fn info(dir: &Path) -> Result<()> {
             .with_context(|| format!("member {}", m.dir.display()))?;
         let size = BankSize::of(&b);
         println!(
-            "  {:>6.1} km/h  {}  {} instances, {:.1} MB, bank id {}",
-            m.speed_km_per_h,
+            "  {}  {}  {} instances, {:.1} MB, bank id {}",
+            member_words(&f, m),
             m.current
                 .version
                 .strip_prefix(dir)
@@ -64,8 +76,8 @@ pub(super) fn verify(dir: &Path) -> Result<()> {
             .and_then(|_| crate::bank::verify(&m.current.version).map_err(anyhow::Error::from));
         match checked {
             Ok((manifest, problems)) if problems.is_empty() => println!(
-                "  {:>6.1} km/h: {} files, {} instances, checksums match",
-                m.speed_km_per_h,
+                "  {}: {} files, {} instances, checksums match",
+                member_words(&f, m),
                 manifest.files.len(),
                 manifest.instances
             ),
@@ -101,7 +113,7 @@ pub(super) fn verify(dir: &Path) -> Result<()> {
 pub(super) fn prune(dir: &Path, keep: usize) -> Result<()> {
     let f = open(dir)?;
     for m in &f.members {
-        println!("member {} km/h:", m.speed_km_per_h);
+        println!("member {}:", member_words(&f, m).trim());
         let p = crate::bank::prune::prune_keeping(
             &m.dir,
             keep,
@@ -114,7 +126,7 @@ pub(super) fn prune(dir: &Path, keep: usize) -> Result<()> {
 }
 
 /// `bank audit` of a family: `sample` instances of every member (with `calibration`, that
-/// calibration at each member's speed).
+/// calibration at each member's speed and load).
 pub(super) fn audit(dir: &Path, sample: usize, calibration: Option<&Path>) -> Result<()> {
     let f = open(dir)?;
     let mut drifted = 0;
@@ -123,9 +135,11 @@ pub(super) fn audit(dir: &Path, sample: usize, calibration: Option<&Path>) -> Re
             .open()
             .with_context(|| format!("member {}", m.dir.display()))?;
         let against = match calibration {
-            Some(p) => Some(crate::bank::family::at_speed(
+            // At the member's speed, and at its load (a factor of the family's car body).
+            Some(p) => Some(crate::bank::family_write::at_speed_and_load(
                 &super::load_calibration(Some(p))?,
                 m.speed_km_per_h,
+                m.load_factor,
             )?),
             None => None,
         };

@@ -18,6 +18,7 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
         Extras {
             baselines: !a.no_baselines,
             curves: !a.no_baselines,
+            as_recorded: false,
         }
     } else {
         Extras::NONE
@@ -115,6 +116,7 @@ pub(super) fn compare(a: &CompareArgs) -> Result<()> {
         Extras {
             baselines: true,
             curves: false,
+            as_recorded: false,
         },
     )?;
     print!("{}", comparison_table(&id, truth.as_ref()));

@@ -213,11 +213,10 @@ fn read_measurement(
     let mut m = Measurement::from_csv(path, &text, members.family().sample_rate_hz)?;
     let v = m.pass_speed(speed)?;
     m.speed_km_per_h = Some(v);
-    let k = match members.family().member_for(v) {
-        Err(_) if nearest => members.family().nearest_member(v),
-        found => found.with_context(|| format!("measurement {}", path.display()))?,
-    };
-    members.open_member(k)?;
+    // Its speed, then the load its record shows, pick the member.
+    let k = members
+        .member_for_pass(&m, None, nearest)
+        .with_context(|| format!("measurement {}", path.display()))?;
     Ok((m, k))
 }
 

@@ -13,7 +13,8 @@ pub(super) struct Progress {
     bar: Option<indicatif::ProgressBar>,
     done: AtomicUsize,
     total: AtomicUsize,
-    started: Instant,
+    /// When the current bank (a family's current member) started.
+    started: Mutex<Instant>,
     last_log: Mutex<Instant>,
 }
 
@@ -24,7 +25,7 @@ impl Progress {
             bar: None,
             done: AtomicUsize::new(0),
             total: AtomicUsize::new(0),
-            started: Instant::now(),
+            started: Mutex::new(Instant::now()),
             last_log: Mutex::new(Instant::now()),
         }
     }
@@ -54,7 +55,12 @@ impl Progress {
     fn log_line(&self) -> String {
         let done = self.done.load(Ordering::Relaxed);
         let total = self.total.load(Ordering::Relaxed).max(1);
-        let secs = self.started.elapsed().as_secs_f64();
+        let secs = self
+            .started
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .elapsed()
+            .as_secs_f64();
         let rate = done as f64 / secs.max(1e-9);
         let eta = (total - done.min(total)) as f64 / rate.max(1e-9);
         format!(
@@ -67,11 +73,15 @@ impl Progress {
 
 impl GenerateObserver for Progress {
     fn started(&self, to_simulate: usize, already_done: usize) {
+        // Each bank (each member of a family) counts from zero.
         self.total.store(to_simulate, Ordering::Relaxed);
+        self.done.store(0, Ordering::Relaxed);
+        *self.started.lock().unwrap_or_else(|e| e.into_inner()) = Instant::now();
         if already_done > 0 {
             eprintln!("bank: resuming, {already_done} instances already on disk");
         }
         if let Some(b) = &self.bar {
+            b.reset();
             b.set_length(to_simulate as u64);
         } else if to_simulate > 0 {
             eprintln!("bank: simulating {to_simulate} instances");

@@ -87,6 +87,21 @@ fn train(a: &SynthArgs, cal: &CheckedCalibration) -> Result<()> {
             a.bogies
         );
     }
+    if !a.bogie_loads.is_empty() && a.bogie_loads.len() != a.bogies {
+        anyhow::bail!(
+            "--bogie-loads gives {} loads for {} bogies: give one per bogie",
+            a.bogie_loads.len(),
+            a.bogies
+        );
+    }
+    if let Some(f) = a
+        .bogie_loads
+        .iter()
+        .find(|f| !(f.is_finite() && (0.05..=5.0).contains(*f)))
+    {
+        anyhow::bail!("--bogie-loads: {f} is not a car-body mass factor in [0.05, 5]");
+    }
+    spec.loads = a.bogie_loads.clone();
     spec.speeds_km_per_h = a.bogie_speeds.clone();
     let syn = synthesize_train(cal, &spec)?;
     let triggers = a.out.with_extension("triggers.csv");

@@ -29,6 +29,7 @@ pub(super) fn run(a: &TrainArgs) -> Result<()> {
         result.total_ms / result.bogies.len().max(1) as f64
     );
     println!("{}", crate::report::train::speeds_line(&result));
+    println!("{}", crate::report::train::loads_line(&result));
     println!("severity rule: {}", result.severity_rule);
     for w in &result.warnings {
         println!("warning: {w}");
@@ -68,15 +69,21 @@ pub(super) fn identify_pass(
     let bogies = crate::train::bogies_from_triggers(&cal, triggers, &times)?;
     let mut picked = Vec::with_capacity(bogies.len());
     for (b, bogie) in bogies.iter().enumerate() {
-        let k = members.member_for(bogie.speed_km_per_h).with_context(|| {
-            format!(
-                "{}: bogie {} (lines {} and {})",
-                triggers.display(),
-                b + 1,
-                2 * b + 2,
-                2 * b + 3
-            )
-        })?;
+        // The bogie's speed, then the load its part of the record shows, pick the member.
+        let mut at_bogie = m.clone();
+        at_bogie.laser_trigger_s = Some(bogie.triggers_s[0]);
+        at_bogie.speed_km_per_h = Some(bogie.speed_km_per_h);
+        let k = members
+            .member_for_pass(&at_bogie, None, false)
+            .with_context(|| {
+                format!(
+                    "{}: bogie {} (lines {} and {})",
+                    triggers.display(),
+                    b + 1,
+                    2 * b + 2,
+                    2 * b + 3
+                )
+            })?;
         if !picked.contains(&k) {
             crate::train::check_coverage(members.get(k).bank(), &members.family().members[k].dir)?;
         }

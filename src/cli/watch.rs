@@ -42,9 +42,10 @@ impl Open {
     /// The version in words, for the log: the bank's version directory, or the family.
     fn name(&self) -> String {
         let f = self.members.family();
-        match f.band {
-            Some(band) => format!("family {} ({band})", f.dir.display()),
-            None => f.members[0]
+        match (f.band, f.loads) {
+            (Some(band), Some(loads)) => format!("family {} ({band} × {loads})", f.dir.display()),
+            (Some(band), None) => format!("family {} ({band})", f.dir.display()),
+            (None, _) => f.members[0]
                 .current
                 .version
                 .file_name()

@@ -625,7 +625,7 @@ pub fn diagnose(
         crate::bank::generate(&with, dir, &gen, observer)?;
         lap("local bank", &mut timings);
         let local = Identifier::new(crate::bank::Bank::open(dir)?, identifier.settings().clone())?;
-        let again = local.identify(m, sensors, crate::identify::Extras::NONE)?;
+        let again = local.identify(m, sensors, crate::identify::Extras::AS_RECORDED)?;
         let after = locate(&local, &again)?;
         let after_stage = Stage::of(&again, &after);
         lap("identify again", &mut timings);

@@ -134,7 +134,7 @@ pub fn pass_residuals(
     identifier: &crate::identify::Identifier,
     m: &crate::identify::Measurement,
 ) -> Result<Vec<Vec<f64>>, crate::identify::IdentifyError> {
-    let id = identifier.identify(m, None, crate::identify::Extras::NONE)?;
+    let id = identifier.identify(m, None, crate::identify::Extras::AS_RECORDED)?;
     let Some(det) = id.detection.as_ref() else {
         return Ok(Vec::new());
     };

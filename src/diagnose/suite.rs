@@ -572,7 +572,7 @@ pub fn run_case_with(
     let t = std::time::Instant::now();
     let (m, l0) = measurement(cal, case).map_err(DiagnoseError::Other)?;
     let (m, _note) = super::on_bank_speed(&m, cal.run.speed_km_per_h)?;
-    let id = identifier.identify(&m, None, Extras::NONE)?;
+    let id = identifier.identify(&m, None, Extras::AS_RECORDED)?;
     let d = diagnose(identifier, &m, None, &id, opts, &Quiet)?;
     let named = d
         .naming

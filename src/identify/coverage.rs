@@ -101,6 +101,7 @@ pub fn run(
             Extras {
                 baselines,
                 curves: false,
+                as_recorded: false,
             },
         )?;
         let inside = |r: Option<&ParamRanges>| r.is_some_and(|r| holds_truth(r, &t, false));

@@ -115,6 +115,10 @@ pub struct SensorTest {
     /// differs from the bank's more than the table allows (another load, or a sensor's
     /// calibration).
     pub gain_outside_table: bool,
+    /// The gain as fitted, before clamping: the record's level over the bank's flat-free
+    /// prediction at this sensor (another load moves every sensor's; [`super::load`]).
+    #[serde(default)]
+    pub fitted_gain: f64,
     /// Loaded samples the gain was estimated from.
     pub loaded_samples: usize,
     /// The largest `|r_k| − b_k` over the window (kN): positive means the flat-free model is
@@ -245,6 +249,7 @@ pub fn test_sensor(
         sensor: sensor.sensor.clone(),
         gain,
         gain_outside_table: !(bounds.gain[0]..=bounds.gain[1]).contains(&fitted),
+        fitted_gain: fitted,
         loaded_samples,
         excess_kn: worst.0,
         at_time_s: sensor.t0_s + worst.1 as f64 / sensor.sample_rate_hz,
@@ -474,6 +479,7 @@ mod tests {
             sensor: "rps1".into(),
             gain: 1.0,
             gain_outside_table: false,
+            fitted_gain: 1.0,
             loaded_samples: 400,
             excess_kn: 1.0,
             at_time_s: 0.0,

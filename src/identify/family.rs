@@ -2,7 +2,7 @@
 //! time a pass at its speed needs it and kept open after (a resident `watch`, a train whose
 //! bogies run at several speeds).
 
-use super::{Identifier, IdentifyError};
+use super::{Identifier, IdentifyError, Measurement};
 use crate::bank::family::Family;
 use crate::model::calibration::IdentificationParams;
 use std::path::Path;
@@ -45,6 +45,87 @@ impl Members {
             .family
             .member_for(speed_km_per_h)
             .map_err(|e| IdentifyError::Invalid(e.to_string()))?;
+        self.open_member(k)?;
+        Ok(k)
+    }
+
+    /// The member a pass is compared with, opened: the member at its speed
+    /// (`m.speed_km_per_h`, which the caller states), and among the members at that speed the
+    /// one nearest the load its record shows, read on the member nearest the calibration's own
+    /// load ([`Identifier::estimate_load`]). A single bank, or a family without loads, is
+    /// checked the same way: a load outside every member's tolerances
+    /// ([`crate::bank::loads::nearest_load`]) is refused with the loads covered named. `nearest`: the nearest member
+    /// however far (diagnosis, which lets the record say what it is). `sensors` as for
+    /// [`Identifier::identify`].
+    pub fn member_for_pass(
+        &mut self,
+        m: &Measurement,
+        sensors: Option<&[String]>,
+        nearest: bool,
+    ) -> Result<usize, IdentifyError> {
+        let v = m.speed_km_per_h.ok_or_else(|| {
+            IdentifyError::Invalid(format!(
+                "{}: the pass's speed is needed to pick a bank",
+                m.path.display()
+            ))
+        })?;
+        let k = if nearest {
+            self.family.nearest_member(v)
+        } else {
+            self.family
+                .member_for(v)
+                .map_err(|e| IdentifyError::Invalid(e.to_string()))?
+        };
+        let at_speed = self.family.at_speed_of(k);
+        // The member nearest the calibration's own load reads the record's.
+        let own = at_speed
+            .iter()
+            .copied()
+            .min_by(|&a, &b| {
+                let f = |j: usize| {
+                    self.family.members[j]
+                        .load_factor
+                        .map_or(0.0, |x| (x - 1.0).abs())
+                };
+                f(a).total_cmp(&f(b))
+            })
+            .expect("a speed has members");
+        self.open_member(own)?;
+        // Nearest however far (diagnosis): the record is read at the member's speed, which
+        // the diagnosis then questions.
+        let at_member;
+        let m = match nearest {
+            true => {
+                at_member = Measurement {
+                    speed_km_per_h: Some(self.family.members[own].speed_km_per_h),
+                    ..m.clone()
+                };
+                &at_member
+            }
+            false => m,
+        };
+        let Some(load) = self.get(own).estimate_load(m, sensors)? else {
+            return Ok(own);
+        };
+        let loads_kn: Vec<f64> = at_speed
+            .iter()
+            .map(|&j| match self.family.loads {
+                Some(_) => self.family.members[j].wheel_load_kn,
+                None => load.bank_wheel_load_kn,
+            })
+            .collect();
+        let k = self
+            .family
+            .member_for_load(&at_speed, &loads_kn, load.wheel_load_kn, nearest)
+            .map_err(|e| {
+                IdentifyError::Invalid(format!(
+                    "{e} (the record's load: {:.1}–{:.1} kN a wheel, {:.0} %; car body ≈ {:.0} kg)",
+                    load.interval_kn[0],
+                    load.interval_kn[1],
+                    super::load::LOAD_INTERVAL_PROBABILITY * 100.0,
+                    load.car_body_mass_kg
+                ))
+            })?;
         self.open_member(k)?;
         Ok(k)
     }

@@ -108,9 +108,9 @@ impl Identifier {
     pub(super) fn no_flat(
         &self,
         m: &Measurement,
-        alignment: Alignment,
-        series: Vec<MeasuredSeries>,
+        (alignment, series): (Alignment, Vec<MeasuredSeries>),
         mut detection: Detection,
+        load: Option<super::load::LoadEstimate>,
         axes: &[usize],
         mut timings_ms: Vec<(String, f64)>,
     ) -> Result<Identification, IdentifyError> {
@@ -168,6 +168,7 @@ impl Identifier {
         Ok(Identification {
             measurement: m.path.display().to_string(),
             speed: self.speed_use(m),
+            load,
             bank_id: meta.bank_id.clone(),
             bank_instances: self.bank.instances(),
             population: population_ranges(&meta.calibration),

@@ -17,6 +17,7 @@ pub mod envelope;
 pub mod falsify;
 pub mod family;
 mod flat_free;
+pub mod load;
 pub mod measurement;
 pub mod pip;
 mod prepare;
@@ -99,6 +100,9 @@ pub struct Extras {
     pub baselines: bool,
     /// Joint entropy curves per sensor set (paper Fig. 16).
     pub curves: bool,
+    /// The record as recorded: its load read and reported, but not put on the bank's load
+    /// (diagnosis, which asks whether the model explains the record itself).
+    pub as_recorded: bool,
 }
 
 impl Extras {
@@ -106,6 +110,13 @@ impl Extras {
     pub const NONE: Extras = Extras {
         baselines: false,
         curves: false,
+        as_recorded: false,
+    };
+    /// The method alone on the record as recorded ([`Extras::as_recorded`]).
+    pub const AS_RECORDED: Extras = Extras {
+        baselines: false,
+        curves: false,
+        as_recorded: true,
     };
 }
 
@@ -125,6 +136,8 @@ pub struct Identifier {
     bin_buffers: Mutex<buffer::HugeBuffer>,
     /// The bank's departures table, loaded when a pass first needs its detection limit.
     departures: Mutex<Option<std::sync::Arc<crate::bank::departures::Departures>>>,
+    /// The table's level factor per number of sensors ([`load::level_factor`]), drawn once.
+    load_levels: Mutex<std::collections::HashMap<usize, (f64, [f64; 2])>>,
 }
 
 impl Identifier {
@@ -176,6 +189,7 @@ impl Identifier {
             buffers: Mutex::new(buffer::HugeBuffer::default()),
             bin_buffers: Mutex::new(buffer::HugeBuffer::default()),
             departures: Mutex::new(None),
+            load_levels: Mutex::new(std::collections::HashMap::new()),
         }
     }
 
@@ -261,14 +275,19 @@ impl Identifier {
         let Prepared {
             used,
             alignment,
-            series,
+            mut series,
             cands,
         } = self.prepare(m, sensors)?;
         let axes: Vec<usize> = used.iter().map(|&(_, bi)| bi).collect();
+        // The load the record shows, and the record put on the bank's load (load::at_bank_load).
+        let load = self.load_of(&self.detect(&axes, &series));
+        if let Some(l) = load.as_ref().filter(|_| !extras.as_recorded) {
+            self.at_bank_load(&axes, &mut series, l);
+        }
         let detection = self.detect(&axes, &series);
         lap("detection", &mut timings);
         if !detection.flat_detected {
-            return self.no_flat(m, alignment, series, detection, &axes, timings);
+            return self.no_flat(m, (alignment, series), detection, load, &axes, timings);
         }
         let meta = self.bank.metadata();
         let cal = &meta.calibration;
@@ -534,6 +553,7 @@ impl Identifier {
         Ok(Identification {
             measurement: m.path.display().to_string(),
             speed: self.speed_use(m),
+            load,
             bank_id: meta.bank_id.clone(),
             bank_instances: n,
             population,

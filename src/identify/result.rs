@@ -174,6 +174,10 @@ pub struct Identification {
     /// The pass's speed and the bank's (absent in results written before it was stated).
     #[serde(default)]
     pub speed: SpeedUse,
+    /// The wheel load the record shows, with its interval (absent in results written before
+    /// it was read; [`super::load`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load: Option<super::load::LoadEstimate>,
     /// Bank identity and size.
     pub bank_id: String,
     /// Instances in the bank.

@@ -113,6 +113,9 @@ pub fn identification_text(id: &Identification) -> String {
     }
     s += &speed_line(&id.speed);
     s.push('\n');
+    if let Some(l) = &id.load {
+        s += &format!("{}; {}\n", l.words(), l.adjustment_words());
+    }
     if let Some(d) = &id.detection {
         s += &detection_line(d);
         s.push('\n');

@@ -7,7 +7,7 @@ use crate::train::TrainResult;
 /// The table as CSV.
 pub fn table_csv(r: &TrainResult) -> String {
     let mut s = String::from(
-        "car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity,speed_km_per_h,bank_speed_km_per_h,refined_l0_min_mm,refined_l0_max_mm\n",
+        "car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity,speed_km_per_h,bank_speed_km_per_h,refined_l0_min_mm,refined_l0_max_mm,load_kn,load_min_kn,load_max_kn,bank_load_kn\n",
     );
     for w in &r.wheels {
         let (lo, hi) = w.l0_mm.map_or((String::new(), String::new()), |[a, b]| {
@@ -19,13 +19,23 @@ pub fn table_csv(r: &TrainResult) -> String {
             .map_or((f64::NAN, f64::NAN), |b| {
                 (b.speed_km_per_h, b.bank_speed_km_per_h)
             });
+        let load = r
+            .bogies
+            .get(w.bogie.wrapping_sub(1))
+            .and_then(|b| b.load.as_ref())
+            .map_or(",,,".to_string(), |l| {
+                format!(
+                    "{:.1},{:.1},{:.1},{:.1}",
+                    l.wheel_load_kn, l.interval_kn[0], l.interval_kn[1], l.bank_wheel_load_kn
+                )
+            });
         let (rlo, rhi) = w
             .refined_l0_mm
             .map_or((String::new(), String::new()), |[a, b]| {
                 (format!("{a:.1}"), format!("{b:.1}"))
             });
         s += &format!(
-            "{},{},{},{},{lo},{hi},{},{},{v:.2},{vb},{rlo},{rhi}\n",
+            "{},{},{},{},{lo},{hi},{},{},{v:.2},{vb},{rlo},{rhi},{load}\n",
             w.car,
             w.bogie,
             w.wheel.name(),
@@ -65,6 +75,32 @@ pub fn speeds_line(r: &TrainResult) -> String {
         })
         .collect();
     format!("speeds: {}", parts.join("; "))
+}
+
+/// The wheel load each bogie's part of the record shows, and the bank's it was compared at:
+/// `loads (kN a wheel, read from the record): bogie 1 47.9 (bank 49.5), bogie 2 36.0 (bank 34.8)`.
+pub fn loads_line(r: &TrainResult) -> String {
+    let parts: Vec<String> = r
+        .bogies
+        .iter()
+        .filter_map(|b| {
+            b.load.as_ref().map(|l| {
+                format!(
+                    "bogie {} {:.1} ({:.1}–{:.1}; bank {:.1})",
+                    b.bogie,
+                    l.wheel_load_kn,
+                    l.interval_kn[0],
+                    l.interval_kn[1],
+                    l.bank_wheel_load_kn
+                )
+            })
+        })
+        .collect();
+    format!(
+        "loads (kN a wheel, read from the record, {:.0} % interval): {}",
+        crate::identify::load::LOAD_INTERVAL_PROBABILITY * 100.0,
+        parts.join(", ")
+    )
 }
 
 /// A wheel's L0 range, and its refined range after an arrow when it was refined:
@@ -129,7 +165,7 @@ pub fn table_html(r: &TrainResult) -> String {
     }
     h += &format!(
         "</tbody></table>\n<p>{}.</p>\n<p>Severity rule: {}.</p>\n",
-        esc(&speeds_line(r)),
+        esc(&format!("{} — {}", speeds_line(r), loads_line(r))),
         esc(&r.severity_rule)
     );
     for w in &r.warnings {

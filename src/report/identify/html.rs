@@ -127,6 +127,9 @@ pub(super) fn render_html(
         e(&id.bank_id),
         id.bank_instances
     )?;
+    if let Some(l) = &id.load {
+        writeln!(h, "<p class=\"meta\">{}</p>", e(&l.words()))?;
+    }
     let refuted = if id.model_class_refuted {
         " refuted"
     } else {
