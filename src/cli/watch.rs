@@ -132,8 +132,19 @@ fn identify_one(
         .and_then(|r| r.ranges.as_ref())
         .map(|r| format!(" Refined: L0 in [{:.0}, {:.0}] mm.", r.l0_mm[0], r.l0_mm[1]))
         .unwrap_or_default();
+    // The load read and the bank's, a wheel: `34.8 kN (bank 34.8 kN)`.
+    let load = id
+        .load
+        .as_ref()
+        .map(|l| {
+            format!(
+                ", {:.1} kN a wheel (bank {:.1} kN)",
+                l.wheel_load_kn, l.bank_wheel_load_kn
+            )
+        })
+        .unwrap_or_default();
     Ok(format!(
-        "{} km/h against the {} km/h bank: {}{refined}",
+        "{} km/h against the {} km/h bank{load}: {}{refined}",
         m.speed_km_per_h.unwrap_or(f64::NAN),
         id.speed.bank_km_per_h,
         id.summary
