@@ -18,7 +18,11 @@ What it implements (the Rust source it follows, docs/identification.md for the m
    pyarrow: a `layout.bin` the bank may carry (src/bank/layout.rs) is not needed;
 2. the measurement CSV, its alignment (laser trigger, or cross-correlation against the
    flat-free template) and its series on the bank windows (src/identify/measurement.rs);
-3. top-down perceptually important points per series (src/identify/pip.rs);
+   then put on the bank's load: the sensors' least-squares levels over the flat-free
+   template against the table's mean level factor, scaled down when heavier, the static part
+   added when lighter (src/identify/load.rs);
+3. top-down perceptually important points per series, on the record as recorded
+   (src/identify/pip.rs);
 4. the bank columns of the candidate points, read by column projection;
 5. the combined uncertainty: Monte Carlo samples from the same SplitMix64 stream, so they are
    the same numbers, shortest intervals on the |y| grid and interpolation between grid rows

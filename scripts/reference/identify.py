@@ -37,6 +37,66 @@ def envelope_windows(series, templates, per_series, half_width):
     return out
 
 
+def fitted_level(y, template):
+    """A sensor's level over the flat-free prediction (src/identify/detect.rs `test_sensor`):
+    least squares over the loaded samples, summed in order as the Rust sums."""
+    peak = 0.0
+    for g in template:
+        peak = max(peak, abs(float(g)))
+    floor = max(0.25 * peak, 2.0)
+    yg = gg = 0.0
+    n = 0
+    for yk, g in zip(y, template):
+        g = float(g)
+        if abs(g) >= floor:
+            yg += float(yk) * g
+            gg += g * g
+            n += 1
+    fitted = yg / gg if gg > 0.0 and math.isfinite(yg / gg) else 1.0
+    return fitted, n
+
+
+def at_bank_load(series, templates, table, vehicle):
+    """The record put on the bank's load (src/identify/load.rs `at_bank_load`): the sensors'
+    mean level over the table's mean level factor gives the load's ratio to the bank's; a pass
+    heavier than the bank is scaled down, a lighter one has the static part added."""
+    levels = []
+    for y, t in zip(series, templates):
+        fitted, n = fitted_level(y, t)
+        if n > 0 and math.isfinite(fitted) and fitted > 0.0:
+            levels.append(fitted)
+    if not levels:
+        return series
+    mean_level = 0.0
+    for a in levels:
+        mean_level += a
+    mean_level /= len(levels)
+
+    def mid(group):
+        total = 0.0
+        for u in table:
+            if u["group"] == group and u["kind"] == "relative":
+                total += 0.5 * (u["min"] + u["max"])
+        return total
+
+    level_at_bank = (1.0 - mid("model")) * (1.0 + mid("measurement"))
+    # As the Rust computes it: the load shown = mean level × the bank's load ÷ that factor.
+    v = vehicle
+    bank_kn = (0.5 * (v["car_body_mass_kg"] + v["bogie_mass_kg"]) + v["wheel_mass_kg"]) * v["gravity_m_per_s2"] / 1e3
+    shown_kn = mean_level * bank_kn / level_at_bank
+    r = bank_kn / shown_kn
+    out = []
+    for y, t in zip(series, templates):
+        y = np.array(y, dtype=np.float64)
+        if r < 1.0:
+            y = y * r
+        else:
+            excess = mean_level * (1.0 - r)
+            y = y - excess * t.astype(np.float64)
+        out.append(y)
+    return out
+
+
 def identify(bank, settings, uncertainty, half_extent, m, sensors, watch):
     """Identifies measurement `m` against `bank` with only `sensors` (None: all the file has):
     the result as a dict for the JSON, each stage lapped on `watch`."""
@@ -77,10 +137,14 @@ def identify(bank, settings, uncertainty, half_extent, m, sensors, watch):
             raise Failure(f"{m.path}: the record is shorter than the bank windows")
         alignment = {"method": "cross-correlation", "shift_s": found[0], "correlation": found[1]}
     series = [m.on_window(mi, bank.axes[bi], alignment["shift_s"]) for mi, bi in used]
+    recorded = series
+    # The record put on the bank's load (src/identify/load.rs); its PIPs are the record's own.
+    series = at_bank_load(series, [bank.template[bi] for _, bi in used], settings["uncertainty"],
+                          cal["vehicle"])
 
     # PIPs → candidate points (series, sample, PIP order).
     cands = []
-    for si, y in enumerate(series):
+    for si, y in enumerate(recorded):
         for order, k in enumerate(pips(y, settings["pips_per_series"], settings["pip_distance"])):
             cands.append((si, k, order))
     watch.lap("align and pip")
