@@ -62,21 +62,7 @@ impl SpeedBand {
     /// [1, 500] km/h, multiples of 0.1 km/h, FROM ≤ TO, STEP > 0, at most [`MAX_MEMBERS`]
     /// members, and no speed in the band farther than [`SPEED_TOLERANCE`] from a member.
     pub fn parse(text: &str) -> Result<SpeedBand, String> {
-        let parts: Vec<&str> = text.split(':').collect();
-        if parts.len() != 3 {
-            return Err(format!(
-                "`{text}` is not FROM:TO:STEP in km/h (e.g. `40:60:2`)"
-            ));
-        }
-        let mut v = [0.0; 3];
-        for (slot, (part, name)) in v.iter_mut().zip(parts.iter().zip(["FROM", "TO", "STEP"])) {
-            *slot = part
-                .trim()
-                .parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| format!("{name} `{part}` in `{text}` is not a number of km/h"))?;
-        }
+        let v = super::band::parse_from_to_step(text, "in km/h (e.g. `40:60:2`)", " of km/h")?;
         let band = SpeedBand {
             from_km_per_h: v[0],
             to_km_per_h: v[1],
@@ -102,7 +88,7 @@ impl SpeedBand {
         if s <= 0.0 || (s < 0.1 - 1e-9) {
             return Err(format!("STEP {s} must be at least 0.1 km/h"));
         }
-        let n = ((b - a) / s + 1e-9).floor() as usize + 1;
+        let n = super::band::count(a, b, s);
         if n > MAX_MEMBERS {
             return Err(format!(
                 "{n} members, more than the {MAX_MEMBERS} a family may have"
@@ -129,9 +115,7 @@ impl SpeedBand {
 
     /// The member speeds, rounded to 0.1 km/h.
     pub fn speeds(&self) -> Vec<f64> {
-        let n = ((self.to_km_per_h - self.from_km_per_h) / self.step_km_per_h + 1e-9).floor()
-            as usize
-            + 1;
+        let n = super::band::count(self.from_km_per_h, self.to_km_per_h, self.step_km_per_h);
         (0..n)
             .map(|k| ((self.from_km_per_h + k as f64 * self.step_km_per_h) * 10.0).round() / 10.0)
             .collect()

@@ -36,21 +36,11 @@ impl LoadBand {
     /// Parses `FROM:TO:STEP` (factors of the calibration's car-body mass, e.g. `0.6:1.1:0.5`),
     /// checked against `vehicle` ([`LoadBand::check`]).
     pub fn parse(text: &str, vehicle: &VehicleParams) -> Result<LoadBand, String> {
-        let parts: Vec<&str> = text.split(':').collect();
-        if parts.len() != 3 {
-            return Err(format!(
-                "`{text}` is not FROM:TO:STEP in factors of the car-body mass (e.g. `0.6:1.1:0.5`)"
-            ));
-        }
-        let mut v = [0.0; 3];
-        for (slot, (part, name)) in v.iter_mut().zip(parts.iter().zip(["FROM", "TO", "STEP"])) {
-            *slot = part
-                .trim()
-                .parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| format!("{name} `{part}` in `{text}` is not a number"))?;
-        }
+        let v = super::band::parse_from_to_step(
+            text,
+            "in factors of the car-body mass (e.g. `0.6:1.1:0.5`)",
+            "",
+        )?;
         let band = LoadBand {
             from: v[0],
             to: v[1],
@@ -83,7 +73,7 @@ impl LoadBand {
         if s < 0.01 - 1e-9 {
             return Err(format!("STEP {s} must be at least 0.01"));
         }
-        let n = ((b - a) / s + 1e-9).floor() as usize + 1;
+        let n = super::band::count(a, b, s);
         if n > MAX_LOADS {
             return Err(format!(
                 "{n} loads, more than the {MAX_LOADS} a family may have"
@@ -124,7 +114,7 @@ impl LoadBand {
 
     /// The member factors, rounded to 0.01.
     pub fn factors(&self) -> Vec<f64> {
-        let n = ((self.to - self.from) / self.step + 1e-9).floor() as usize + 1;
+        let n = super::band::count(self.from, self.to, self.step);
         (0..n)
             .map(|k| ((self.from + k as f64 * self.step) * 100.0).round() / 100.0)
             .collect()

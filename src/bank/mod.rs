@@ -15,6 +15,7 @@
 //! - [`verify`]: every file checked against the manifest in full.
 //! - [`lock`]: one writer at a time per bank directory; [`prune`]: old versions removed.
 
+mod band;
 pub mod departures;
 pub mod family;
 pub mod family_write;
