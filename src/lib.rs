@@ -17,6 +17,7 @@ pub mod audit;
 pub mod bank;
 pub mod cli;
 pub mod diagnose;
+pub mod history;
 pub mod identify;
 pub mod model;
 pub mod report;

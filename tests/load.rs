@@ -196,5 +196,5 @@ fn a_train_of_empty_and_laden_cars_compares_each_bogie_at_its_own_load() {
         .lines()
         .next()
         .unwrap()
-        .ends_with("load_kn,load_min_kn,load_max_kn,bank_load_kn"));
+        .ends_with("load_kn,load_min_kn,load_max_kn,bank_load_kn,severity_classes,wheel_id"));
 }

@@ -73,7 +73,7 @@ fn flats_are_found_on_the_right_wheels_and_good_wheels_stay_good() {
     let csv = wheelflat::report::train::table_csv(&r);
     assert_eq!(csv.lines().count(), 25);
     assert!(csv.starts_with(
-        "car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity,speed_km_per_h,bank_speed_km_per_h,refined_l0_min_mm,refined_l0_max_mm,load_kn,load_min_kn,load_max_kn,bank_load_kn\n"
+        "car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity,speed_km_per_h,bank_speed_km_per_h,refined_l0_min_mm,refined_l0_max_mm,load_kn,load_min_kn,load_max_kn,bank_load_kn,severity_classes,wheel_id\n"
     ));
 }
 
@@ -118,6 +118,68 @@ fn the_commands_write_the_report_and_refuse_a_bank_that_does_not_cover_a_train()
     for f in ["train.csv", "train.json", "train.html"] {
         assert!(report.join(f).metadata().unwrap().len() > 500, "{f}");
     }
+
+    // A consist names the bogies: the table's wheel ids, and with `--db` every bogie's pass
+    // stored under its id (the wheel with the flat, 4711-5/trailing, among them).
+    let consist = tmp.path().join("train.consist.csv");
+    let ids: Vec<String> = (1..=12).map(|b| format!("4711-{b}")).collect();
+    std::fs::write(
+        &consist,
+        format!("# train 4711\nbogie_id\n{}\n", ids.join("\n")),
+    )
+    .unwrap();
+    let db = tmp.path().join("results.sqlite");
+    let named = tmp.path().join("named");
+    let out = train(
+        dir,
+        &triggers,
+        &named,
+        &[
+            "--consist",
+            consist.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+        ],
+    )
+    .success();
+    let text = String::from_utf8(out.get_output().stdout.clone()).unwrap();
+    assert!(
+        text.contains("stored 12 new bogie passes of 12")
+            && text.contains("12 named by the consist"),
+        "{text}"
+    );
+    let csv = std::fs::read_to_string(named.join("train.csv")).unwrap();
+    assert!(csv
+        .lines()
+        .next()
+        .unwrap()
+        .ends_with(",severity_classes,wheel_id"));
+    assert!(csv.contains(",4711-5/trailing"), "{csv}");
+    let hist = wheelflat()
+        .args(["history", "--wheel", "4711-5/trailing", "--db"])
+        .arg(&db)
+        .assert()
+        .success();
+    let hist = String::from_utf8(hist.get_output().stdout.clone()).unwrap();
+    assert!(
+        hist.contains("wheel 4711-5/trailing: 1 passes") && hist.contains("flat"),
+        "{hist}"
+    );
+    // A consist that does not match the triggers is refused before anything is identified.
+    std::fs::write(&consist, "bogie_id\nA\nB\n").unwrap();
+    let err = train(
+        dir,
+        &triggers,
+        &tmp.path().join("never"),
+        &["--consist", consist.to_str().unwrap()],
+    )
+    .failure();
+    let stderr = String::from_utf8(err.get_output().stderr.clone()).unwrap();
+    assert!(
+        stderr.contains("2 bogie ids for the 12 bogies the triggers give"),
+        "{stderr}"
+    );
+    assert!(!tmp.path().join("never").exists());
 
     // `--refine`: the wheel with the flat gets a refined range beside its bank-only one
     // (`bank-only → refined` in the table, `refined_l0_mm` in the JSON), the others none.

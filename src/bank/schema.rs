@@ -424,6 +424,22 @@ mod tests {
         other.identification.uncertainty.clear();
         assert_eq!(id(&base), id(&other));
         assert!(!base.model_toml_string().contains("identification"));
+        // An operator's rulebook (`[maintenance]`) neither.
+        let mut rulebook = base.clone();
+        rulebook.maintenance = Some(crate::model::calibration::MaintenanceParams {
+            inspect_l0_mm: 20.0,
+            urgent_l0_mm: 35.0,
+            ..Default::default()
+        });
+        assert_eq!(id(&base), id(&rulebook));
+        let checked = rulebook.check().unwrap();
+        assert_eq!(
+            (
+                checked.identification.inspect_l0_mm,
+                checked.identification.urgent_l0_mm
+            ),
+            (20.0, 35.0)
+        );
         let mut model = base.clone();
         model.run.speed_km_per_h += 1.0;
         assert_ne!(id(&base), id(&model));

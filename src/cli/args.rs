@@ -80,7 +80,11 @@ pub(super) enum Command {
     Compare(CompareArgs),
     /// Identify every wheel of a whole train pass: one recording, the trigger time of every
     /// wheel; a table (CSV, JSON, HTML) with flat yes/no, L0 range and severity per wheel.
-    Train(TrainArgs),
+    Train(super::train::TrainArgs),
+    /// A wheel's history from a results database: every stored pass's answer, the joint
+    /// answer of the newest passes (the flat must fit them all), its severity classes, and
+    /// a trend figure; a wheel whose flat grew is reported as changed.
+    History(super::history::HistoryArgs),
     /// Audit one model instance: re-simulate it and compare with the bank; with a measurement,
     /// show why it is kept or falsified.
     Audit(AuditArgs),
@@ -366,6 +370,10 @@ pub(super) struct IdentifyArgs {
     /// Simulations of the refinement, split over its rounds (1–20000).
     #[arg(long, default_value_t = 640, requires = "refine")]
     pub refine_simulations: usize,
+    /// Also store the pass in this results database (SQLite; made when absent): its wheels'
+    /// history, when the measurement names its bogie (`# bogie_id = …`; docs/history.md).
+    #[arg(long)]
+    pub db: Option<PathBuf>,
 }
 
 // `watch`.
@@ -403,30 +411,10 @@ pub(super) struct WatchArgs {
     /// Simulations of each refinement (1–20000).
     #[arg(long, default_value_t = 640, requires = "refine")]
     pub refine_simulations: usize,
-}
-
-// `train`.
-#[derive(Debug, Args)]
-pub(super) struct TrainArgs {
-    /// Bank directory (of the site profile, the default: both wheels, X_p over a revolution).
-    #[arg(long, default_value = "bank")]
-    pub bank: PathBuf,
-    /// The recording: CSV `time_s,<sensor>_kn,…` over the whole train pass.
+    /// Also store every pass in this results database (SQLite; made when absent). A train
+    /// pass's bogies are named by `NAME.consist.csv` beside its recording (docs/history.md).
     #[arg(long)]
-    pub recording: PathBuf,
-    /// Trigger times, one per wheel passing the laser (`time_s` column).
-    #[arg(long)]
-    pub triggers: PathBuf,
-    /// Report folder: `train.csv`, `train.json`, `train.html`.
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Also refine every wheel with a flat (about 1.2 s a wheel on 2 cores); its severity is
-    /// then taken from the refined L0 range (docs/train.md).
-    #[arg(long)]
-    pub refine: bool,
-    /// Simulations of each wheel's refinement (1–20000).
-    #[arg(long, default_value_t = 640, requires = "refine")]
-    pub refine_simulations: usize,
+    pub db: Option<PathBuf>,
 }
 
 // `audit`.

@@ -2,6 +2,7 @@
 
 use super::args::{CompareArgs, IdentifyArgs};
 use super::open_identifier;
+use crate::history::PassRecord;
 use crate::identify::refine::{bank_simulator, refine, RefineSettings};
 use crate::identify::synth::Truth;
 use crate::identify::{Extras, Identification, Identifier};
@@ -13,6 +14,8 @@ use std::path::Path;
 /// with `--report` the figures and the HTML report.
 pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
     let i = &a.input;
+    // A database that cannot be opened is refused before any work.
+    let mut db = a.db.as_deref().map(super::history::open_db).transpose()?;
     let (identifier, m) = open_identifier(&i.bank, &i.measured, i.calibration.as_deref(), i.speed)?;
     let extras = if a.report {
         Extras {
@@ -26,6 +29,17 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
     let mut id = identifier.identify(&m, i.sensors.as_deref(), extras)?;
     if a.refine {
         refine_into(&identifier, &mut id, a.refine_simulations)?;
+    }
+    if let Some(db) = &mut db {
+        let key = super::history::pass_key(&[&i.measured], "")?;
+        let rec = PassRecord::of(
+            &id,
+            &identifier,
+            m.bogie_id.as_deref(),
+            key,
+            crate::history::db::now_s(),
+        );
+        println!("{}", super::history::store(db, &rec)?);
     }
     if a.report {
         return report(&id, &a.out, None);

@@ -16,6 +16,7 @@ mod demo;
 mod diagnose;
 mod family;
 mod flat_args;
+mod history;
 mod identify;
 mod progress;
 mod simulate;
@@ -79,6 +80,7 @@ pub fn main() -> ExitCode {
         Command::Audit(a) => audit::run(&a),
         Command::Diagnose(a) => diagnose::run(&a),
         Command::Train(a) => train::run(&a),
+        Command::History(a) => history::run(&a),
         Command::Demo {
             out,
             bank,

@@ -20,6 +20,7 @@
 
 use super::args::WatchArgs;
 use crate::bank::family::Family;
+use crate::history::{Db, PassRecord};
 use crate::identify::family::Members;
 use crate::identify::Extras;
 use anyhow::{Context, Result};
@@ -30,6 +31,8 @@ use std::time::{Duration, Instant};
 
 /// What marks a recording as a train pass: `NAME.csv` with `NAME` + this beside it.
 const TRIGGERS_SUFFIX: &str = ".triggers.csv";
+/// A train pass's consist (its bogies' ids), beside it like the triggers: `NAME` + this.
+const CONSIST_SUFFIX: &str = ".consist.csv";
 
 /// The open bank or family (members opened as passes need them) and what identifies its
 /// version ([`Family::key`]).
@@ -77,6 +80,7 @@ fn waiting(inbox: &Path) -> Result<Vec<PathBuf>> {
             && !name.starts_with('.')
             && name.ends_with(".csv")
             && !name.ends_with(TRIGGERS_SUFFIX)
+            && !name.ends_with(CONSIST_SUFFIX)
         {
             out.push(entry.path());
         }
@@ -90,18 +94,29 @@ fn waiting(inbox: &Path) -> Result<Vec<PathBuf>> {
 fn identify_one(
     open: &mut Open,
     path: &Path,
-    triggers: Option<&Path>,
+    beside: &Beside,
     a: &WatchArgs,
     out: &Path,
+    db: Option<&mut Db>,
 ) -> Result<String> {
-    if let Some(triggers) = triggers {
+    if let Some(triggers) = &beside.triggers {
         let refine = a.refine.then_some(crate::identify::refine::RefineSettings {
             simulations: a.refine_simulations,
             ..Default::default()
         });
-        let result = super::train::identify_pass(&mut open.members, path, triggers, refine)?;
+        let (result, picked) = super::train::identify_pass(
+            &mut open.members,
+            path,
+            triggers,
+            beside.consist.as_deref(),
+            refine,
+        )?;
         std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
         super::train::write_outputs(&result, out)?;
+        // Stored before the inputs move: a crash between the two stores nothing twice.
+        if let Some(db) = db {
+            super::train::store_pass(db, &open.members, &picked, &result, &[path, triggers])?;
+        }
         let flats: Vec<String> = result
             .wheels
             .iter()
@@ -126,6 +141,17 @@ fn identify_one(
     }
     crate::report::identify::write_identification_json(&id, out)
         .with_context(|| format!("cannot write the result in {}", out.display()))?;
+    if let Some(db) = db {
+        let rec = PassRecord::of(
+            &id,
+            identifier,
+            m.bogie_id.as_deref(),
+            super::history::pass_key(&[path], "")?,
+            crate::history::db::now_s(),
+        );
+        db.insert(&rec)
+            .with_context(|| format!("cannot store the pass of {}", path.display()))?;
+    }
     let refined = id
         .refinement
         .as_ref()
@@ -143,12 +169,50 @@ fn identify_one(
             )
         })
         .unwrap_or_default();
+    let severity = id
+        .refinement
+        .as_ref()
+        .and_then(|r| r.severity)
+        .or(id.severity)
+        .map(|c| format!(" Severity: {}.", c.words()))
+        .unwrap_or_default();
+    let bogie = m
+        .bogie_id
+        .as_deref()
+        .map(|b| format!(" bogie {b},"))
+        .unwrap_or_default();
     Ok(format!(
-        "{} km/h against the {} km/h bank{load}: {}{refined}",
+        "{bogie} {} km/h against the {} km/h bank{load}: {}{refined}{severity}",
         m.speed_km_per_h.unwrap_or(f64::NAN),
         id.speed.bank_km_per_h,
         id.summary
-    ))
+    )
+    .trim_start()
+    .to_string())
+}
+
+/// The files a recording brings beside it: a train pass's triggers and consist.
+struct Beside {
+    triggers: Option<PathBuf>,
+    consist: Option<PathBuf>,
+}
+
+impl Beside {
+    fn of(path: &Path, stem: &str) -> Beside {
+        let near = |suffix: &str| {
+            let p = path.with_file_name(format!("{stem}{suffix}"));
+            p.is_file().then_some(p)
+        };
+        let triggers = near(TRIGGERS_SUFFIX);
+        Beside {
+            consist: triggers.as_ref().and_then(|_| near(CONSIST_SUFFIX)),
+            triggers,
+        }
+    }
+
+    fn files(&self) -> impl Iterator<Item = &PathBuf> {
+        self.triggers.iter().chain(self.consist.iter())
+    }
 }
 
 /// Moves `path` into `dir` (same file system: a rename).
@@ -177,6 +241,8 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
     let (done, failed) = (a.inbox.join("done"), a.inbox.join("failed"));
+    // The results database, opened once (refused before any pass when it is not one).
+    let mut db = a.db.as_deref().map(super::history::open_db).transpose()?;
     let mut current = open(a)?;
     println!(
         "{} watching {} with bank {} (poll {} ms)",
@@ -221,21 +287,21 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
                 .to_string_lossy()
                 .to_string();
             let stem = name.trim_end_matches(".csv").to_string();
-            let triggers = path.with_file_name(format!("{stem}{TRIGGERS_SUFFIX}"));
-            let triggers = triggers.is_file().then_some(triggers);
+            let beside = Beside::of(&path, &stem);
             let t = Instant::now();
             let result = identify_one(
                 &mut current,
                 &path,
-                triggers.as_deref(),
+                &beside,
                 a,
                 &a.out.join(&stem),
+                db.as_mut(),
             );
             let ms = t.elapsed().as_secs_f64() * 1e3;
             seen += 1;
             match result {
                 Ok(verdict) => {
-                    if let Some(t) = &triggers {
+                    for t in beside.files() {
                         move_into(t, &done)?;
                     }
                     move_into(&path, &done)?;
@@ -251,7 +317,7 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
                         .with_context(|| format!("cannot create {}", failed.display()))?;
                     let note = failed.join(format!("{name}.error.txt"));
                     super::write_file(&note, format!("{e:#}\n").as_bytes())?;
-                    if let Some(t) = &triggers {
+                    for t in beside.files() {
                         move_into(t, &failed)?;
                     }
                     move_into(&path, &failed)?;

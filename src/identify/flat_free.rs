@@ -160,6 +160,9 @@ impl Identifier {
             ),
             _ => "No verdict: the sensors used cannot see this wheel's flats; do not count this pass as a good wheel.".to_string(),
         };
+        // A good wheel is `none`; a pass that cannot see a wheel gives no class.
+        let severity = (limit.l0_mm.is_some() && unseen.is_empty())
+            .then_some(super::SeverityRange::single(super::Severity::None));
         detection.limit = Some(limit);
         timings_ms.push((
             "detection limit".into(),
@@ -194,6 +197,7 @@ impl Identifier {
             detection: Some(detection),
             summary,
             maintenance_hint: hint,
+            severity,
             timings_ms,
             refinement: None,
         })

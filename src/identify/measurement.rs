@@ -7,6 +7,7 @@
 //! ```text
 //! # laser_trigger_s = 0.3760        optional: when the leading wheel passed the laser (file clock)
 //! # speed_km_per_h = 50             optional: checked against the bank's speed
+//! # bogie_id = 4711-2                optional: the bogie measured (its wheels' history)
 //! time_s,rps1_kn,rps2_kn
 //! 0.000000,0.0173,-0.1595
 //! ```
@@ -42,6 +43,32 @@ pub struct Measurement {
     pub laser_trigger_s: Option<f64>,
     /// Train speed, if recorded.
     pub speed_km_per_h: Option<f64>,
+    /// The bogie measured (`# bogie_id = …`), if named: its wheels are `<id>/leading` and
+    /// `<id>/trailing` in the results database.
+    pub bogie_id: Option<String>,
+}
+
+/// The longest bogie id (characters).
+pub const MAX_BOGIE_ID_CHARS: usize = 64;
+
+/// Checks a bogie id: 1 to [`MAX_BOGIE_ID_CHARS`] characters out of letters, digits and
+/// `. _ - :` (no `/`: it separates the bogie from the wheel in a wheel id). The reason when
+/// not.
+pub fn check_bogie_id(id: &str) -> Result<&str, String> {
+    if id.is_empty() || id.chars().count() > MAX_BOGIE_ID_CHARS {
+        return Err(format!(
+            "bogie id `{id}` must have 1 to {MAX_BOGIE_ID_CHARS} characters"
+        ));
+    }
+    match id
+        .chars()
+        .find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-' | ':')))
+    {
+        Some(c) => Err(format!(
+            "bogie id `{id}` holds `{c}`: letters, digits and . _ - : only"
+        )),
+        None => Ok(id),
+    }
 }
 
 fn bad(path: &Path, line: usize, message: String) -> IdentifyError {
@@ -61,6 +88,7 @@ impl Measurement {
     ) -> Result<Measurement, IdentifyError> {
         let mut laser = None;
         let mut speed = None;
+        let mut bogie_id = None;
         let mut header: Option<(usize, Vec<String>)> = None;
         let mut time = Vec::new();
         let mut columns: Vec<Vec<f64>> = Vec::new();
@@ -98,6 +126,10 @@ impl Measurement {
                     match k {
                         "laser_trigger_s" => laser = Some(parse(v)?),
                         "speed_km_per_h" => speed = Some(parse(v)?),
+                        "bogie_id" => {
+                            let id = check_bogie_id(v).map_err(|e| bad(path, line_no, e))?;
+                            bogie_id = Some(id.to_string());
+                        }
                         _ => {}
                     }
                 }
@@ -246,6 +278,7 @@ impl Measurement {
             values_kn: columns,
             laser_trigger_s: laser,
             speed_km_per_h: speed,
+            bogie_id,
         })
     }
 
@@ -325,6 +358,7 @@ impl Measurement {
             values_kn,
             laser_trigger_s: self.laser_trigger_s.map(|t| t * r),
             speed_km_per_h: Some(bank_km_per_h),
+            bogie_id: self.bogie_id.clone(),
         }
     }
 
@@ -433,7 +467,24 @@ mod tests {
             values_kn: vec![(0..1000).map(|k| (0.1 + k as f64 * dt) * 1e3).collect()],
             laser_trigger_s: Some(0.2),
             speed_km_per_h: speed,
+            bogie_id: None,
         }
+    }
+
+    #[test]
+    fn a_bogie_id_is_read_and_checked() {
+        let text = "# bogie_id = 4711-2\ntime_s,rps1_kn\n0.0,1.0\n0.0004,1.1\n0.0008,1.2\n";
+        let m = Measurement::from_csv(Path::new("m.csv"), text, 2500.0).unwrap();
+        assert_eq!(m.bogie_id.as_deref(), Some("4711-2"));
+        let bad = text.replace("4711-2", "47/11");
+        let e = Measurement::from_csv(Path::new("m.csv"), &bad, 2500.0)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("m.csv") && e.contains("line 1") && e.contains("holds `/`"),
+            "{e}"
+        );
+        assert!(check_bogie_id(&"x".repeat(65)).is_err());
     }
 
     #[test]

@@ -31,7 +31,7 @@ pub mod uncertainty;
 
 pub use measurement::Measurement;
 pub use result::Identification;
-pub use severity::Severity;
+pub use severity::{Severity, SeverityRange};
 
 use crate::bank::{Bank, BankError, Parameters};
 use crate::model::calibration::IdentificationParams;
@@ -550,6 +550,12 @@ impl Identifier {
         } else {
             summarise(&cms_ranges, cms.len(), n, method_points.len(), s)
         };
+        let severity = SeverityRange::of_answer(
+            true,
+            cms_ranges.as_ref(),
+            below_population.then_some(population.l0_mm[0]),
+            s,
+        );
         Ok(Identification {
             measurement: m.path.display().to_string(),
             speed: self.speed_use(m),
@@ -579,6 +585,7 @@ impl Identifier {
             detection: Some(detection),
             summary,
             maintenance_hint: hint,
+            severity: Some(severity),
             timings_ms: timings,
             refinement: None,
         })

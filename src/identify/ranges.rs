@@ -107,3 +107,36 @@ pub(crate) fn population_ranges(cal: &Calibration) -> ParamRanges {
         impact: None,
     }
 }
+
+impl super::Identifier {
+    /// The index of the instance numbered `id` in the bank as read (its number itself for
+    /// every bank wheelflat writes; searched otherwise).
+    pub fn index_of_instance(&self, id: u32) -> Option<usize> {
+        let ids = &self.params.instance;
+        match ids.get(id as usize) {
+            Some(&x) if x == id => Some(id as usize),
+            _ => ids.iter().position(|&x| x == id),
+        }
+    }
+
+    /// The cell of instance `k` in (L, d, c): `[L_lo, L_hi, d_lo, d_hi, c_lo, c_hi]` (mm),
+    /// half-way to its farthest neighbour each way, clamped to the population — what the bank
+    /// can resolve around it (the same extents the reported ranges are the union of). The
+    /// results database stores a pass's surviving cells so that passes can be fused.
+    pub fn cell_box(&self, k: usize) -> [f64; 6] {
+        let pop = &self.bank.metadata().calibration.population;
+        let h = self.cells.half_extent(k);
+        let x = [
+            self.params.length_mm[k],
+            self.params.depth_mm[k],
+            self.params.curvature_mm[k],
+        ];
+        let clamp = [pop.length_mm, pop.depth_mm, pop.curvature_mm];
+        let mut b = [0.0; 6];
+        for t in 0..3 {
+            b[2 * t] = (x[t] - h[t]).max(clamp[t][0]);
+            b[2 * t + 1] = (x[t] + h[t]).min(clamp[t][1]);
+        }
+        b
+    }
+}

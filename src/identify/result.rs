@@ -235,6 +235,10 @@ pub struct Identification {
     pub summary: String,
     /// Maintenance hint (severity rule stated).
     pub maintenance_hint: String,
+    /// The severity classes the answer spans and the one acted on (its highest); absent in
+    /// results written before it was stated.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub severity: Option<super::SeverityRange>,
     /// Wall-clock of the stages (ms).
     pub timings_ms: Vec<(String, f64)>,
     /// The refined answer (`identify --refine`), beside the bank-only one above.

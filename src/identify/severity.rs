@@ -121,6 +121,128 @@ impl Severity {
     }
 }
 
+/// The classes an answer's range spans, from the lowest to the highest, and the one acted on
+/// (the highest: an answer is right or conservative by construction). `decisive` when it spans
+/// one class. Serialises as `{"lowest": "inspect", "highest": "urgent"}`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct SeverityRange {
+    /// The mildest class the answer allows.
+    pub lowest: Severity,
+    /// The gravest class it allows: the one acted on.
+    pub highest: Severity,
+}
+
+impl SeverityRange {
+    /// One class.
+    pub fn single(s: Severity) -> SeverityRange {
+        SeverityRange {
+            lowest: s,
+            highest: s,
+        }
+    }
+
+    /// The classes an L0 range `[lo, hi]` (mm) spans under the L0 limits.
+    pub fn of_l0(l0_mm: [f64; 2], urgent_l0_mm: f64, inspect_l0_mm: f64) -> SeverityRange {
+        SeverityRange {
+            lowest: Severity::of_upper_l0(l0_mm[0], urgent_l0_mm, inspect_l0_mm),
+            highest: Severity::of_upper_l0(l0_mm[1], urgent_l0_mm, inspect_l0_mm),
+        }
+    }
+
+    /// The classes a set's ranges span under the settings' rule (the impact rule on the
+    /// dynamic-ratio range where the ranges carry one, else the L0 rule).
+    pub fn of_ranges(r: &ParamRanges, s: &IdentificationParams) -> SeverityRange {
+        match (s.maintenance_rule, r.impact) {
+            (MaintenanceRule::Impact, Some(i)) => SeverityRange {
+                lowest: Severity::of_upper_ratio(
+                    i.dynamic_ratio[0],
+                    s.urgent_dynamic_ratio,
+                    s.inspect_dynamic_ratio,
+                ),
+                highest: Severity::of_upper_ratio(
+                    i.dynamic_ratio[1],
+                    s.urgent_dynamic_ratio,
+                    s.inspect_dynamic_ratio,
+                ),
+            },
+            _ => SeverityRange::of_l0(r.l0_mm, s.urgent_l0_mm, s.inspect_l0_mm),
+        }
+    }
+
+    /// The classes of one identification's answer: `none` for a good wheel, `inspect` for a
+    /// refuted model class, `monitor` for a flat below the population (its L0 below the
+    /// population's floor, read by the L0 rule), else the candidate set's range.
+    pub fn of_answer(
+        detected: bool,
+        ranges: Option<&ParamRanges>,
+        below_population_floor_l0_mm: Option<f64>,
+        s: &IdentificationParams,
+    ) -> SeverityRange {
+        match (detected, below_population_floor_l0_mm, ranges) {
+            (false, _, _) => SeverityRange::single(Severity::None),
+            (true, Some(floor), _) => SeverityRange::single(Severity::of_upper_l0(
+                floor,
+                s.urgent_l0_mm,
+                s.inspect_l0_mm,
+            )),
+            (true, None, Some(r)) => SeverityRange::of_ranges(r, s),
+            (true, None, None) => SeverityRange::single(Severity::Inspect),
+        }
+    }
+
+    /// The smallest range holding both.
+    pub fn union(self, other: SeverityRange) -> SeverityRange {
+        SeverityRange {
+            lowest: self.lowest.min(other.lowest),
+            highest: self.highest.max(other.highest),
+        }
+    }
+
+    /// One class: the answer tells the class.
+    pub fn decisive(self) -> bool {
+        self.lowest == self.highest
+    }
+
+    /// The class acted on: the highest.
+    pub fn acted_on(self) -> Severity {
+        self.highest
+    }
+
+    /// The classes spanned in a short form for tables: `urgent`, `inspect-urgent`.
+    pub fn short(self) -> String {
+        if self.decisive() {
+            self.highest.to_string()
+        } else {
+            format!("{}-{}", self.lowest, self.highest)
+        }
+    }
+
+    /// The classes spanned and the action: `urgent`, or `inspect or urgent — act as urgent`.
+    pub fn words(self) -> String {
+        let classes: Vec<&str> = [
+            Severity::None,
+            Severity::Monitor,
+            Severity::Inspect,
+            Severity::Urgent,
+        ]
+        .into_iter()
+        .filter(|c| (self.lowest..=self.highest).contains(c))
+        .map(Severity::as_str)
+        .collect();
+        match classes.as_slice() {
+            [one] => one.to_string(),
+            [init @ .., last] => format!("{} or {last} — act as {}", init.join(", "), self.highest),
+            [] => self.highest.to_string(),
+        }
+    }
+}
+
+impl fmt::Display for SeverityRange {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.pad(&self.words())
+    }
+}
+
 impl fmt::Display for Severity {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.pad(self.as_str())
@@ -225,6 +347,41 @@ mod tests {
             assert_eq!(s.to_string(), name);
             assert_eq!(format!("{s:<8}|"), format!("{name:<8}|"));
         }
+    }
+
+    #[test]
+    fn a_range_names_its_classes_and_acts_on_the_highest() {
+        let r = SeverityRange::of_l0([30.0, 45.0], 40.0, 25.0);
+        assert_eq!((r.lowest, r.highest), (Severity::Inspect, Severity::Urgent));
+        assert!(!r.decisive());
+        assert_eq!(r.acted_on(), Severity::Urgent);
+        assert_eq!(r.words(), "inspect or urgent — act as urgent");
+        assert_eq!(r.short(), "inspect-urgent");
+        let wide = SeverityRange::of_l0([20.0, 45.0], 40.0, 25.0);
+        assert_eq!(wide.words(), "monitor, inspect or urgent — act as urgent");
+        let one = SeverityRange::of_l0([41.0, 55.0], 40.0, 25.0);
+        assert!(one.decisive());
+        assert_eq!(one.words(), "urgent");
+        // Other limits (an operator's rulebook) move the classes.
+        let other = SeverityRange::of_l0([30.0, 45.0], 50.0, 20.0);
+        assert_eq!(other.words(), "inspect");
+        let s = IdentificationParams::default();
+        assert_eq!(
+            SeverityRange::of_answer(false, None, None, &s),
+            SeverityRange::single(Severity::None)
+        );
+        assert_eq!(
+            SeverityRange::of_answer(true, None, None, &s),
+            SeverityRange::single(Severity::Inspect)
+        );
+        assert_eq!(
+            SeverityRange::of_answer(true, None, Some(19.0), &s),
+            SeverityRange::single(Severity::Monitor)
+        );
+        assert_eq!(
+            serde_json::to_string(&r).unwrap(),
+            r#"{"lowest":"inspect","highest":"urgent"}"#
+        );
     }
 
     #[test]

@@ -3,6 +3,7 @@
 pub mod audit;
 pub mod canvas;
 pub mod diagnose;
+pub mod history;
 pub mod identify;
 pub mod plot;
 pub mod response;

@@ -111,6 +111,14 @@ pub fn identification_text(id: &Identification) -> String {
     if let Some(r) = &id.refinement {
         s += &format!("{}\n{}\n", r.summary, r.maintenance_hint);
     }
+    if let Some(c) = id
+        .refinement
+        .as_ref()
+        .and_then(|r| r.severity)
+        .or(id.severity)
+    {
+        s += &format!("severity: {}\n", c.words());
+    }
     s += &speed_line(&id.speed);
     s.push('\n');
     if let Some(l) = &id.load {

@@ -7,7 +7,7 @@ use crate::train::TrainResult;
 /// The table as CSV.
 pub fn table_csv(r: &TrainResult) -> String {
     let mut s = String::from(
-        "car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity,speed_km_per_h,bank_speed_km_per_h,refined_l0_min_mm,refined_l0_max_mm,load_kn,load_min_kn,load_max_kn,bank_load_kn\n",
+        "car,bogie,wheel,flat,l0_min_mm,l0_max_mm,cms_count,severity,speed_km_per_h,bank_speed_km_per_h,refined_l0_min_mm,refined_l0_max_mm,load_kn,load_min_kn,load_max_kn,bank_load_kn,severity_classes,wheel_id\n",
     );
     for w in &r.wheels {
         let (lo, hi) = w.l0_mm.map_or((String::new(), String::new()), |[a, b]| {
@@ -35,13 +35,15 @@ pub fn table_csv(r: &TrainResult) -> String {
                 (format!("{a:.1}"), format!("{b:.1}"))
             });
         s += &format!(
-            "{},{},{},{},{lo},{hi},{},{},{v:.2},{vb},{rlo},{rhi},{load}\n",
+            "{},{},{},{},{lo},{hi},{},{},{v:.2},{vb},{rlo},{rhi},{load},{},{}\n",
             w.car,
             w.bogie,
             w.wheel.name(),
             w.flat,
             w.cms_count,
-            w.severity
+            w.severity,
+            w.classes.map_or(String::new(), |c| c.short()),
+            w.wheel_id.as_deref().unwrap_or("")
         );
     }
     s
@@ -114,6 +116,14 @@ fn l0_text(w: &crate::train::WheelRow) -> String {
     }
 }
 
+/// A wheel's severity for people: `urgent`, or `inspect-urgent (act as urgent)`.
+fn severity_text(w: &crate::train::WheelRow) -> String {
+    match w.classes {
+        Some(c) if !c.decisive() => format!("{} (act as {})", c.short(), c.acted_on()),
+        _ => w.severity.to_string(),
+    }
+}
+
 /// The table for people.
 pub fn table_text(r: &TrainResult) -> String {
     let mut s = format!(
@@ -131,7 +141,7 @@ pub fn table_text(r: &TrainResult) -> String {
             w.flat,
             l0,
             w.cms_count,
-            w.severity
+            severity_text(w)
         );
     }
     s
@@ -160,7 +170,7 @@ pub fn table_html(r: &TrainResult) -> String {
             w.wheel.name(),
             esc(&w.flat),
             w.cms_count,
-            esc(w.severity.as_str())
+            esc(&severity_text(w))
         );
     }
     h += &format!(

@@ -198,6 +198,14 @@ pub struct Refinement {
     /// The maintenance hint from the refined upper L0 bound (rule stated), or why the bank-only
     /// answer's stands.
     pub maintenance_hint: String,
+    /// The classes the refined answer spans (absent when the bank-only verdict stands).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub severity: Option<super::SeverityRange>,
+    /// The surviving flats' cells in (L, d, c) — `[L_lo, L_hi, d_lo, d_hi, c_lo, c_hi]`
+    /// (mm), clamped to the population — and their wheels, for the results database (not in
+    /// the JSON; empty when the bank-only answer stands).
+    #[serde(skip)]
+    pub cells: Vec<([f64; 6], WheelPosition)>,
 }
 
 /// A flat of the local population with its predictions at the comparison points.
@@ -312,6 +320,8 @@ pub fn refine(
         time_ms: 0.0,
         summary: String::new(),
         maintenance_hint: String::new(),
+        severity: None,
+        cells: Vec::new(),
     };
     if seeds.is_empty() {
         return Ok(finish(out, t0, identifier));
@@ -406,6 +416,20 @@ pub fn refine(
         out.survivors = kept.len();
         seeds = kept;
     }
+    if out.ranges.is_some() {
+        let clamp = [pop.length_mm, pop.depth_mm, pop.curvature_mm];
+        out.cells = seeds
+            .iter()
+            .map(|m| {
+                let mut b = [0.0; 6];
+                for t in 0..3 {
+                    b[2 * t] = (m.x[t] - m.half[t]).max(clamp[t][0]);
+                    b[2 * t + 1] = (m.x[t] + m.half[t]).min(clamp[t][1]);
+                }
+                (b, m.wheel)
+            })
+            .collect();
+    }
     Ok(finish(out, t0, identifier))
 }
 
@@ -463,8 +487,16 @@ fn finish(mut out: Refinement, t0: std::time::Instant, identifier: &Identifier) 
             )
         }
     };
-    out.maintenance_hint = match &out.ranges {
-        Some(r) if !out.rounds.is_empty() => format!(
+    out.severity = match &out.ranges {
+        Some(r) if !out.rounds.is_empty() => Some(super::SeverityRange::of_l0(
+            r.l0_mm,
+            s.urgent_l0_mm,
+            s.inspect_l0_mm,
+        )),
+        _ => None,
+    };
+    out.maintenance_hint = match (&out.ranges, out.severity) {
+        (Some(r), Some(_)) => format!(
             "refined verdict: {}",
             super::Severity::maintenance_hint(Some(r.l0_mm[1]), s)
         ),

@@ -4,7 +4,39 @@ use super::{Calibration, CalibrationError, CheckedCalibration, Effect};
 
 impl Calibration {
     /// Checks every value once and returns the validated form.
-    pub fn check(self) -> Result<CheckedCalibration, CalibrationError> {
+    pub fn check(mut self) -> Result<CheckedCalibration, CalibrationError> {
+        // `[maintenance]` states the class limits; the rule reads them from the settings.
+        if let Some(m) = &self.maintenance {
+            positive("maintenance.inspect_l0_mm", m.inspect_l0_mm)?;
+            positive("maintenance.urgent_l0_mm", m.urgent_l0_mm)?;
+            if m.inspect_l0_mm >= m.urgent_l0_mm {
+                return Err(invalid(
+                    "maintenance.inspect_l0_mm",
+                    m.inspect_l0_mm,
+                    &format!(
+                        "must lie below maintenance.urgent_l0_mm ({}): the inspection class lies below the urgent one",
+                        m.urgent_l0_mm
+                    ),
+                ));
+            }
+            positive("maintenance.inspect_dynamic_ratio", m.inspect_dynamic_ratio)?;
+            if m.inspect_dynamic_ratio >= m.urgent_dynamic_ratio {
+                return Err(invalid(
+                    "maintenance.inspect_dynamic_ratio",
+                    m.inspect_dynamic_ratio,
+                    &format!(
+                        "must lie below maintenance.urgent_dynamic_ratio ({})",
+                        m.urgent_dynamic_ratio
+                    ),
+                ));
+            }
+            let id = &mut self.identification;
+            id.maintenance_rule = m.rule;
+            id.inspect_l0_mm = m.inspect_l0_mm;
+            id.urgent_l0_mm = m.urgent_l0_mm;
+            id.inspect_dynamic_ratio = m.inspect_dynamic_ratio;
+            id.urgent_dynamic_ratio = m.urgent_dynamic_ratio;
+        }
         let t = &self.track;
         // Physical ranges: wide (an order of magnitude or more around real track), so that
         // any real track fits and a slip of units or digits does not.

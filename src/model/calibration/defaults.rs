@@ -133,6 +133,7 @@ impl Default for Calibration {
             },
             effects: Vec::new(),
             identification: IdentificationParams::default(),
+            maintenance: None,
         }
     }
 }

@@ -378,6 +378,41 @@ pub struct Calibration {
     /// Identification settings and the uncertainty table (not part of a bank's identity).
     #[serde(default)]
     pub identification: IdentificationParams,
+    /// The maintenance rule's class limits (`[maintenance]`, an operator's rulebook): when
+    /// given they replace the same keys of `[identification]` (not part of a bank's identity).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub maintenance: Option<MaintenanceParams>,
+}
+
+/// The severity classes' limits (`[maintenance]`): on the fresh-flat length L0 by default
+/// (25 mm inspect, 40 mm urgent), or on the dynamic ratio with `rule = "impact"`. A limit
+/// itself belongs to the graver class. Keys left out take the defaults.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MaintenanceParams {
+    /// What the classes are read from: `"l0"` or `"impact"`.
+    pub rule: MaintenanceRule,
+    /// From this upper L0 bound (mm) the wheel is inspected.
+    pub inspect_l0_mm: f64,
+    /// From this upper L0 bound (mm) the wheelset is removed within 24 hours.
+    pub urgent_l0_mm: f64,
+    /// Impact rule: the dynamic ratio from which the wheel is inspected.
+    pub inspect_dynamic_ratio: f64,
+    /// Impact rule: the dynamic ratio from which the wheelset is removed within 24 hours.
+    pub urgent_dynamic_ratio: f64,
+}
+
+impl Default for MaintenanceParams {
+    fn default() -> MaintenanceParams {
+        let id = IdentificationParams::default();
+        MaintenanceParams {
+            rule: id.maintenance_rule,
+            inspect_l0_mm: id.inspect_l0_mm,
+            urgent_l0_mm: id.urgent_l0_mm,
+            inspect_dynamic_ratio: id.inspect_dynamic_ratio,
+            urgent_dynamic_ratio: id.urgent_dynamic_ratio,
+        }
+    }
 }
 
 /// A calibration that passed [`Calibration::check`]; the physics only takes this type.
@@ -468,13 +503,16 @@ impl Calibration {
         Ok(toml::from_str(text)?)
     }
 
-    /// The model part of the document (everything but `[identification]`) as canonical TOML:
-    /// what determines simulated values, and so a bank's identity.
+    /// The model part of the document (everything but `[identification]` and
+    /// `[maintenance]`) as canonical TOML: what determines simulated values, and so a bank's
+    /// identity.
     pub fn model_toml_string(&self) -> String {
-        // The `[identification]` table is left out altogether, so that neither its values nor
-        // its defaults (which change between versions) enter a bank's identity.
+        // The `[identification]` and `[maintenance]` tables are left out altogether, so that
+        // neither their values nor their defaults (which change between versions) enter a
+        // bank's identity.
         let mut model = toml::Table::try_from(self).expect("calibration always serialises");
         model.remove("identification");
+        model.remove("maintenance");
         toml::to_string_pretty(&model).expect("a TOML table always serialises")
     }
 

@@ -145,6 +145,13 @@ pub(super) fn render_html(
         "<p class=\"hint\"><strong>Maintenance:</strong> {}</p>",
         e(&id.maintenance_hint)
     )?;
+    if let Some(c) = id.severity {
+        writeln!(
+            h,
+            "<p class=\"hint\"><strong>Severity:</strong> {}</p>",
+            e(&c.words())
+        )?;
+    }
     if let Some(r) = &id.refinement {
         writeln!(
             h,

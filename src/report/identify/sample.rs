@@ -263,6 +263,7 @@ pub fn identification() -> Identification {
         summary: SUMMARY.into(),
         maintenance_hint: "Remove the wheelset from service within 24 h (GM/RT2466: L0 > 50 mm)."
             .into(),
+        severity: None,
         timings_ms: vec![
             ("load".into(), 12.5),
             ("pip".into(), 0.8),

@@ -158,6 +158,8 @@ fn a_refined_answer_is_shown_and_read_back() {
         time_ms: 1200.0,
         summary: "refined: 7 flats survive & L0 < 45 mm".into(),
         maintenance_hint: "refined verdict: inspect".into(),
+        severity: None,
+        cells: Vec::new(),
     });
     let tmp = tempfile::tempdir().expect("tempdir");
     let files = write_identification_report(&id, tmp.path()).expect("write report");

@@ -17,288 +17,20 @@
 
 use crate::bank::Bank;
 use crate::identify::refine::{bank_simulator, refine, RefineSettings};
-use crate::identify::synth::{draw_sources, resolution_step_kn, MARGIN_SAMPLES};
 use crate::identify::{
     Detection, Extras, Identification, Identifier, IdentifyError, Measurement, Severity,
+    SeverityRange,
 };
-use crate::model::calibration::{UncertaintyGroup, UncertaintyKind};
-use crate::model::{CheckedCalibration, Flat, Record, SimError, Simulator, WheelPosition};
-use rayon::prelude::*;
+use crate::model::{CheckedCalibration, Simulator, WheelPosition};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::time::Instant;
 
-/// A flat hidden on one wheel of a synthetic train.
-#[derive(Debug, Clone, PartialEq)]
-pub struct TrainFlat {
-    /// Bogie number, 1-based in running order.
-    pub bogie: usize,
-    /// The wheel of the (half) bogie.
-    pub wheel: WheelPosition,
-    /// The flat.
-    pub flat: Flat,
-}
+mod synth;
 
-/// A synthetic train.
-#[derive(Debug, Clone, PartialEq)]
-pub struct TrainSpec {
-    /// Bogies, in running order (two per car).
-    pub bogies: usize,
-    /// Flats; every other wheel is good.
-    pub flats: Vec<TrainFlat>,
-    /// Bogie-centre spacing within a car and between cars (m).
-    pub spacing_m: [f64; 2],
-    /// Seed of the perturbation.
-    pub seed: u64,
-    /// Each bogie's speed over the site (km/h), e.g. a train accelerating through it; empty:
-    /// every bogie at the calibration's speed.
-    pub speeds_km_per_h: Vec<f64>,
-    /// Each bogie's car-body mass as a factor of the calibration's (cars empty or laden);
-    /// empty: every bogie at the calibration's.
-    pub loads: Vec<f64>,
-}
-
-/// The default train's flats: bogie 2 leading (60 × 0.5 mm), bogie 7 trailing (45 × 0.3 mm),
-/// bogie 11 leading (90 × 0.8 mm), at impact positions spread over the revolution.
-pub fn default_flats() -> Vec<TrainFlat> {
-    let flat = |l, d, c, x| Flat::from_mm(l, d, c, x).expect("valid default flat");
-    vec![
-        TrainFlat {
-            bogie: 2,
-            wheel: WheelPosition::Leading,
-            flat: flat(60.0, 0.5, 0.1, 12.4),
-        },
-        TrainFlat {
-            bogie: 7,
-            wheel: WheelPosition::Trailing,
-            flat: flat(45.0, 0.3, 0.05, 13.5),
-        },
-        TrainFlat {
-            bogie: 11,
-            wheel: WheelPosition::Leading,
-            flat: flat(90.0, 0.8, 0.2, 14.0),
-        },
-    ]
-}
-
-impl TrainSpec {
-    /// 12 bogies (6 cars), 12.5 m bogie centres within a car, 9 m between cars: farther apart
-    /// than a bogie's windows reach (8 m with the default sensors), see [`identify_train`].
-    pub fn twelve_bogies(flats: Vec<TrainFlat>, seed: u64) -> TrainSpec {
-        TrainSpec {
-            bogies: 12,
-            flats,
-            spacing_m: [12.5, 9.0],
-            seed,
-            speeds_km_per_h: Vec::new(),
-            loads: Vec::new(),
-        }
-    }
-}
-
-/// What a synthetic train hides.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TrainTruth {
-    /// Bogies in the train.
-    pub bogies: usize,
-    /// (bogie, wheel, L mm, d mm, c mm, X_p m, L0 mm) of every flat.
-    pub flats: Vec<(usize, WheelPosition, f64, f64, f64, f64, f64)>,
-    /// Leading-wheel trigger time of every bogie (recording clock, s).
-    pub leading_triggers_s: Vec<f64>,
-    /// Seed of the perturbation.
-    pub seed: u64,
-}
-
-/// A synthetic train recording.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SyntheticTrain {
-    /// The recording (measurement CSV format).
-    pub csv: String,
-    /// The trigger times, one per wheel (`time_s` column).
-    pub triggers_csv: String,
-    /// The truth.
-    pub truth: TrainTruth,
-}
-
-/// Simulates every bogie (the good ones once), places them on one clock and perturbs the sum
-/// as `synth` does: per bogie and sensor a systematic model error, per sensor a gain error,
-/// noise per sample, quantisation.
-pub fn synthesize_train(
-    cal: &CheckedCalibration,
-    spec: &TrainSpec,
-) -> Result<SyntheticTrain, SimError> {
-    let rate = cal.output.sample_rate_hz;
-    let speed_of = |b: usize| {
-        spec.speeds_km_per_h
-            .get(b)
-            .copied()
-            .unwrap_or(cal.run.speed_km_per_h)
-    };
-    let load_of = |b: usize| spec.loads.get(b).copied().unwrap_or(1.0);
-    // One simulator (and one good-wheel response) per distinct speed and load.
-    let mut speeds: Vec<(f64, f64)> = (0..spec.bogies)
-        .map(|b| (speed_of(b), load_of(b)))
-        .collect();
-    speeds.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
-    speeds.dedup();
-    let sims: Vec<((f64, f64), Simulator, crate::model::Response)> = speeds
-        .iter()
-        .map(|&(kmh, load)| {
-            let mut doc = cal.document().clone();
-            doc.run.speed_km_per_h = kmh;
-            doc.vehicle.car_body_mass_kg *= load;
-            // A margin around the windows, as `synth` records: a bogie at another speed than
-            // its bank's is read a little before and after them.
-            doc.output.window_samples += 2 * MARGIN_SAMPLES;
-            let c = doc.check().map_err(|e| SimError::Setup(e.to_string()))?;
-            let sim = Simulator::new(&c)?;
-            let good = sim.run(None, Record::default())?;
-            Ok(((kmh, load), sim, good))
-        })
-        .collect::<Result<_, SimError>>()?;
-    let sim_of = |b: usize| {
-        sims.iter()
-            .find(|((kmh, load), ..)| {
-                kmh.to_bits() == speed_of(b).to_bits() && load.to_bits() == load_of(b).to_bits()
-            })
-            .expect("every bogie's speed has a simulator")
-    };
-    // Where each bogie's record starts on the recording clock (s): its centre's distance
-    // behind the first one at the speed of the bogie ahead, and its window's start.
-    let mut starts_s = Vec::with_capacity(spec.bogies);
-    let mut t = 0.0;
-    for b in 0..spec.bogies {
-        starts_s.push(t);
-        t += spec.spacing_m[b % 2] / (speed_of(b) / 3.6);
-    }
-    let offsets: Vec<usize> = starts_s
-        .iter()
-        .map(|t| (t * rate).round() as usize)
-        .collect();
-    let flat_of = |b: usize| {
-        spec.flats
-            .iter()
-            .find(|f| f.bogie == b + 1)
-            .map(|f| f.flat.on_wheel(f.wheel))
-    };
-    let flats: Vec<Option<crate::model::Response>> = (0..spec.bogies)
-        .into_par_iter()
-        .map(|b| {
-            flat_of(b)
-                .map(|f| sim_of(b).1.run(Some(&f), Record::default()))
-                .transpose()
-        })
-        .collect::<Result<_, _>>()?;
-    let n_sensors = cal.sensors.pad.len();
-    let len = (0..spec.bogies)
-        .map(|b| offsets[b] + sim_of(b).2.len())
-        .max()
-        .unwrap_or(0);
-    let id = &cal.identification;
-    let mut state = spec.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0x7EA1;
-    let mut sum = vec![vec![0.0f64; len]; n_sensors];
-    for (b, &off) in offsets.iter().enumerate() {
-        let resp = flats[b].as_ref().unwrap_or(&sim_of(b).2);
-        for (s, series) in resp.pad_force_n.iter().enumerate() {
-            let e = draw_sources(
-                id,
-                UncertaintyGroup::Model,
-                UncertaintyKind::Relative,
-                false,
-                &mut state,
-            );
-            for (j, &g) in series.iter().enumerate() {
-                sum[s][off + j] += g / 1e3 * (1.0 - e);
-            }
-        }
-    }
-    let gain: Vec<f64> = (0..n_sensors)
-        .map(|_| {
-            draw_sources(
-                id,
-                UncertaintyGroup::Measurement,
-                UncertaintyKind::Relative,
-                false,
-                &mut state,
-            )
-        })
-        .collect();
-    let step = resolution_step_kn(id);
-    let names: Vec<&str> = cal.sensors.pad.iter().map(|p| p.name.as_str()).collect();
-    // The speed line only when every bogie ran at one speed (each bogie's own speed is in
-    // the triggers).
-    let mut csv = format!(
-        "# wheelflat synthetic train: {} bogies (see the truth JSON)\n",
-        spec.bogies
-    );
-    if speeds
-        .iter()
-        .all(|v| v.0.to_bits() == speeds[0].0.to_bits())
-    {
-        csv += &format!("# speed_km_per_h = {}\n", speeds[0].0);
-    }
-    csv += "time_s";
-    for n in &names {
-        csv += &format!(",{n}_kn");
-    }
-    csv.push('\n');
-    for j in 0..len {
-        csv += &format!("{:.6}", j as f64 / rate);
-        for (series, g) in sum.iter().zip(&gain) {
-            let noise = draw_sources(
-                id,
-                UncertaintyGroup::Measurement,
-                UncertaintyKind::AbsoluteKn,
-                true,
-                &mut state,
-            );
-            let mut y = series[j] * (1.0 + g) + noise;
-            if step > 0.0 {
-                y = (y / step).round() * step;
-            }
-            csv += &format!(",{y:.4}");
-        }
-        csv.push('\n');
-    }
-    // Triggers on the recording clock: bogie b's record starts at its offset, which holds
-    // its simulation's global sample `first_sample`.
-    let mut leading = Vec::with_capacity(spec.bogies);
-    let mut triggers_csv = String::from("time_s\n");
-    for (b, &off) in offsets.iter().enumerate() {
-        let v = speed_of(b) / 3.6;
-        let t_lead = (cal.sensors.laser_trigger_m - cal.run.leading_wheel_start_m) / v;
-        let first = sim_of(b).2.first_sample;
-        let t = t_lead + (off as f64 - first as f64) / rate;
-        let gap = 2.0 * cal.vehicle.half_wheelbase_m / v;
-        triggers_csv += &format!("{t:.6}\n{:.6}\n", t + gap);
-        leading.push(t);
-    }
-    let radius = cal.vehicle.wheel_radius_m;
-    Ok(SyntheticTrain {
-        csv,
-        triggers_csv,
-        truth: TrainTruth {
-            bogies: spec.bogies,
-            flats: spec
-                .flats
-                .iter()
-                .map(|f| {
-                    (
-                        f.bogie,
-                        f.wheel,
-                        f.flat.length_m() * 1e3,
-                        f.flat.depth_m() * 1e3,
-                        f.flat.curvature_m() * 1e3,
-                        f.flat.impact_position_m(),
-                        f.flat.fresh_length_m(radius) * 1e3,
-                    )
-                })
-                .collect(),
-            leading_triggers_s: leading,
-            seed: spec.seed,
-        },
-    })
-}
+pub use synth::{
+    default_flats, synthesize_train, SyntheticTrain, TrainFlat, TrainSpec, TrainTruth,
+};
 
 /// Reads a trigger file: one time per wheel passing the laser (s, recording clock), an
 /// optional `time_s` header, `#` comments. Errors name the file, line and value.
@@ -434,6 +166,14 @@ pub struct WheelRow {
     /// Severity class (rule in [`Severity::of_wheel`]; from the refined range when there is
     /// one).
     pub severity: Severity,
+    /// The classes the wheel's answer spans (`severity` is their highest, the one acted on);
+    /// absent for a wheel the pass cannot see.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub classes: Option<SeverityRange>,
+    /// The wheel's id, `<bogie_id>/leading` or `…/trailing`, when the recording's consist
+    /// names its bogies.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wheel_id: Option<String>,
     /// The refined L0 range (mm), with `train --refine` ([`refine_wheels`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub refined_l0_mm: Option<[f64; 2]>,
@@ -462,6 +202,9 @@ pub struct BogieResult {
     pub load: Option<crate::identify::load::LoadEstimate>,
     /// Milliseconds spent on the bogie.
     pub ms: f64,
+    /// The bogie's id from the consist, when given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bogie_id: Option<String>,
 }
 
 /// The whole train.
@@ -575,10 +318,23 @@ pub fn identify_train(
                         "yes",
                         Some(w.ranges.l0_mm),
                         w.cms_count,
-                        Some(Severity::of_ranges(&w.ranges, s)),
+                        Some(SeverityRange::of_ranges(&w.ranges, s)),
                     ),
                     None => ("no", None, 0, None),
                 },
+            };
+            let classes = match (flat, by_rule, l0) {
+                ("yes", Some(rule), _) => Some(rule),
+                ("yes", None, Some(l0)) => {
+                    Some(SeverityRange::of_l0(l0, s.urgent_l0_mm, s.inspect_l0_mm))
+                }
+                ("not seen", ..) => None,
+                _ => Some(SeverityRange::single(Severity::of_wheel(
+                    flat,
+                    l0,
+                    s.urgent_l0_mm,
+                    s.inspect_l0_mm,
+                ))),
             };
             rows.push(WheelRow {
                 car: b / 2 + 1,
@@ -587,10 +343,12 @@ pub fn identify_train(
                 flat: flat.into(),
                 l0_mm: l0,
                 cms_count: count,
-                severity: match (flat, by_rule) {
-                    ("yes", Some(rule)) => rule,
-                    _ => Severity::of_wheel(flat, l0, s.urgent_l0_mm, s.inspect_l0_mm),
-                },
+                severity: classes.map_or_else(
+                    || Severity::of_wheel(flat, l0, s.urgent_l0_mm, s.inspect_l0_mm),
+                    SeverityRange::acted_on,
+                ),
+                classes,
+                wheel_id: None,
                 refined_l0_mm: None,
             });
         }
@@ -603,6 +361,7 @@ pub fn identify_train(
             load,
             identification,
             ms: started.elapsed().as_secs_f64() * 1e3,
+            bogie_id: None,
         });
     }
     Ok(TrainResult {
@@ -652,8 +411,9 @@ pub fn refine_wheels(
             one.cms.retain(|c| c.flat_wheel == row.wheel);
             if let Some(r) = refine(identifier, sim, &one, settings)?.ranges {
                 row.refined_l0_mm = Some(r.l0_mm);
-                row.severity =
-                    Severity::of_wheel("yes", Some(r.l0_mm), s.urgent_l0_mm, s.inspect_l0_mm);
+                let classes = SeverityRange::of_l0(r.l0_mm, s.urgent_l0_mm, s.inspect_l0_mm);
+                row.severity = classes.acted_on();
+                row.classes = Some(classes);
             }
         }
     }

@@ -1,0 +1,159 @@
+//! `wheelflat history` and the `--db` of `identify`, `train` and `watch`: storing passes in the
+//! results database and reading a wheel's passes back as one joint answer.
+
+use crate::history::{fuse, Db, FusionRule, PassRecord, Window};
+use crate::report::history::{draw_trend, HistoryReport};
+use anyhow::{Context, Result};
+use clap::Args;
+use sha2::{Digest, Sha256};
+use std::path::Path;
+use std::path::PathBuf;
+
+// `history`.
+#[derive(Debug, Args)]
+pub(super) struct HistoryArgs {
+    /// The results database `identify`, `train` and `watch` wrote with `--db`.
+    #[arg(long)]
+    pub db: PathBuf,
+    /// The wheel, `<bogie_id>/leading` or `<bogie_id>/trailing`; without it, every wheel the
+    /// database knows.
+    #[arg(long)]
+    pub wheel: Option<String>,
+    /// Fuse the newest N passes (1–1000).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    pub last: u64,
+    /// Only the passes within this many hours of the wheel's newest (flats grow, wheels are
+    /// re-profiled).
+    #[arg(long, value_parser = parse_hours)]
+    pub hours: Option<f64>,
+    /// How passes are combined: `all-but-one` (what every pass but at most one allows, from
+    /// three passes) or `all`.
+    #[arg(long, value_enum, default_value_t = Rule::AllButOne)]
+    pub rule: Rule,
+    /// The class limits from this calibration's `[maintenance]` (default: 25 / 40 mm on L0).
+    #[arg(long)]
+    pub calibration: Option<PathBuf>,
+    /// Also write `history.json` and the trend figure `history.png` here.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// The fusion rule on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(super) enum Rule {
+    /// What every pass but at most one allows (from three passes).
+    AllButOne,
+    /// What every pass allows.
+    All,
+}
+
+/// A window in hours: positive, at most ten years.
+fn parse_hours(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number of hours"))?;
+    if v > 0.0 && v <= 87_600.0 {
+        Ok(v)
+    } else {
+        Err(format!("{v} hours: the window must lie in (0, 87600]"))
+    }
+}
+
+/// What makes a pass itself: the SHA-256 of its file(s), and `extra` (a bogie's place in a
+/// train), in hex.
+pub(super) fn pass_key(files: &[&Path], extra: &str) -> Result<String> {
+    let mut h = Sha256::new();
+    for f in files {
+        let bytes = std::fs::read(f).with_context(|| format!("cannot read {}", f.display()))?;
+        h.update((bytes.len() as u64).to_le_bytes());
+        h.update(&bytes);
+    }
+    h.update(extra.as_bytes());
+    Ok(h.finalize().iter().map(|b| format!("{b:02x}")).collect())
+}
+
+/// Opens (or makes) the results database, naming it in the error.
+pub(super) fn open_db(path: &Path) -> Result<Db> {
+    Db::open(path).with_context(|| "cannot open the results database".to_string())
+}
+
+/// Stores one pass; the line saying so.
+pub(super) fn store(db: &mut Db, rec: &PassRecord) -> Result<String> {
+    let new = db
+        .insert(rec)
+        .with_context(|| format!("cannot store the pass of {}", rec.measurement))?;
+    let who = rec
+        .bogie_id
+        .as_deref()
+        .map_or("no bogie id: not in any wheel's history".to_string(), |b| {
+            format!("bogie {b}")
+        });
+    Ok(format!(
+        "{} {} ({who})",
+        if new { "stored in" } else { "already in" },
+        db.path().display()
+    ))
+}
+
+/// `wheelflat history`.
+pub(super) fn run(a: &HistoryArgs) -> Result<()> {
+    let db = Db::open_existing(&a.db)?;
+    let cal = super::load_calibration(a.calibration.as_deref())?;
+    let (inspect, urgent) = (
+        cal.identification.inspect_l0_mm,
+        cal.identification.urgent_l0_mm,
+    );
+    let Some(wheel) = &a.wheel else {
+        let wheels = db.wheels()?;
+        println!(
+            "{}: {} passes, {} named wheels",
+            a.db.display(),
+            db.pass_count()?,
+            wheels.len()
+        );
+        for w in wheels {
+            println!(
+                "{:<32} {:>5} passes, newest {} ({})",
+                w.wheel_id,
+                w.passes,
+                w.last_time,
+                w.last_severity.map_or("no class".into(), |c| c.words())
+            );
+        }
+        return Ok(());
+    };
+    let window = Window {
+        last: a.last as usize,
+        hours: a.hours,
+    };
+    let passes = db.wheel_passes(wheel, window)?;
+    if passes.is_empty() {
+        anyhow::bail!(
+            "{}: no pass of wheel `{wheel}` (wheels are `<bogie_id>/leading` or `…/trailing`; `wheelflat history --db {}` lists them)",
+            a.db.display(),
+            a.db.display()
+        );
+    }
+    let rule = match a.rule {
+        Rule::AllButOne => FusionRule::AllButOne,
+        Rule::All => FusionRule::All,
+    };
+    let wheels: Vec<_> = passes.iter().map(|p| p.wheel.clone()).collect();
+    let joint = fuse(&wheels, rule, urgent, inspect);
+    let report = HistoryReport::new(wheel, &passes, joint, [inspect, urgent]);
+    print!("{}", report.text());
+    if let Some(out) = &a.out {
+        super::create_output_folder(out)?;
+        let json = out.join("history.json");
+        super::write_file(
+            &json,
+            serde_json::to_string_pretty(&report)
+                .expect("a history serialises")
+                .as_bytes(),
+        )?;
+        let png = out.join("history.png");
+        draw_trend(&report, &png).with_context(|| format!("cannot draw {}", png.display()))?;
+        println!("wrote {} and {}", json.display(), png.display());
+    }
+    Ok(())
+}

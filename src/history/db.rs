@@ -1,0 +1,551 @@
+//! The results database: one SQLite file (bundled SQLite, write-ahead log) holding every pass
+//! `identify`, `train` and `watch` store with `--db`, readable by the tools operators already
+//! have (`sqlite3`, Python, a spreadsheet's ODBC).
+//!
+//! - **Its own schema, checked.** The file carries `PRAGMA application_id` = `WFLT` and
+//!   `user_version` = [`SCHEMA_VERSION`]; a file that is not SQLite, another application's
+//!   database, or a newer schema is refused by name before anything is read or written.
+//! - **A pass is whole or absent.** Each pass and its two wheels go in one transaction
+//!   (`BEGIN IMMEDIATE`, `synchronous = FULL`): a writer killed at any point leaves the file
+//!   as it was before that pass or with the whole pass.
+//! - **Once.** A pass is keyed by the SHA-256 of its record (and its bogie's place in a
+//!   train): storing it again (a restart between storing and moving the file) changes nothing.
+//! - **Readers while a writer writes.** The write-ahead log lets `history` read while `watch`
+//!   writes; both wait up to [`BUSY_TIMEOUT_MS`] for a lock.
+
+use super::record::{boxes_from_bytes, boxes_to_bytes, Claim, PassRecord, Space, WheelPass};
+use crate::identify::{Severity, SeverityRange};
+use crate::model::WheelPosition;
+use rusqlite::{params, Connection, OpenFlags, OptionalExtension, TransactionBehavior};
+use std::path::{Path, PathBuf};
+
+/// `PRAGMA application_id` of a wheelflat results database: `WFLT`.
+pub const APPLICATION_ID: i32 = 0x5746_4C54;
+/// The schema this wheelflat writes and reads.
+pub const SCHEMA_VERSION: i32 = 1;
+/// How long a reader or writer waits for another's lock (ms).
+pub const BUSY_TIMEOUT_MS: u64 = 10_000;
+/// The most passes one query returns (a window larger than this is cut to the newest).
+pub const MAX_WINDOW_PASSES: usize = 1000;
+
+const SCHEMA: &str = "
+CREATE TABLE passes (
+    id INTEGER PRIMARY KEY,
+    key TEXT NOT NULL UNIQUE,
+    time TEXT NOT NULL,
+    time_s REAL NOT NULL,
+    measurement TEXT NOT NULL,
+    bank_id TEXT NOT NULL,
+    speed_km_per_h REAL,
+    bank_speed_km_per_h REAL NOT NULL,
+    load_kn REAL,
+    bogie_id TEXT,
+    summary TEXT NOT NULL
+);
+CREATE TABLE wheel_passes (
+    pass_id INTEGER NOT NULL REFERENCES passes(id) ON DELETE CASCADE,
+    wheel TEXT NOT NULL CHECK (wheel IN ('leading', 'trailing')),
+    wheel_id TEXT,
+    claim TEXT NOT NULL,
+    l0_min_mm REAL,
+    l0_max_mm REAL,
+    severity_lowest TEXT,
+    severity_highest TEXT,
+    limit_l0_mm REAL,
+    space TEXT NOT NULL,
+    cells INTEGER NOT NULL,
+    boxes BLOB NOT NULL,
+    PRIMARY KEY (pass_id, wheel)
+);
+CREATE INDEX wheel_passes_by_wheel ON wheel_passes(wheel_id, pass_id);
+CREATE INDEX passes_by_time ON passes(time_s);
+";
+
+/// What can go wrong with the database, naming the file.
+#[derive(Debug, thiserror::Error)]
+pub enum DbError {
+    /// The file exists and is not a wheelflat results database.
+    #[error("{path} is not a wheelflat results database: {why}")]
+    NotOurs {
+        /// The file.
+        path: PathBuf,
+        /// What it is instead.
+        why: String,
+    },
+    /// A newer wheelflat wrote it.
+    #[error("{path} has schema version {found}, newer than this wheelflat's {SCHEMA_VERSION}: use the wheelflat that wrote it")]
+    Newer {
+        /// The file.
+        path: PathBuf,
+        /// Its schema version.
+        found: i32,
+    },
+    /// There is no database at the path (`history` reads, never creates).
+    #[error(
+        "no results database at {path} (`identify`, `train` and `watch` create one with --db)"
+    )]
+    Missing {
+        /// The file.
+        path: PathBuf,
+    },
+    /// A stored value is not what this wheelflat writes.
+    #[error("{path}: pass {pass}: {what}")]
+    Corrupt {
+        /// The file.
+        path: PathBuf,
+        /// The pass row.
+        pass: i64,
+        /// What is wrong.
+        what: String,
+    },
+    /// SQLite failed.
+    #[error("results database {path}: {source}")]
+    Sqlite {
+        /// The file.
+        path: PathBuf,
+        /// SQLite's error.
+        #[source]
+        source: rusqlite::Error,
+    },
+}
+
+/// A stored pass of one wheel, as `history` reads it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StoredPass {
+    /// Row id of the pass.
+    pub pass_id: i64,
+    /// When it was identified (RFC 3339, UTC).
+    pub time: String,
+    /// The same in Unix seconds.
+    pub time_s: f64,
+    /// The measurement file.
+    pub measurement: String,
+    /// The pass's speed (km/h).
+    pub speed_km_per_h: Option<f64>,
+    /// The bank's speed (km/h).
+    pub bank_speed_km_per_h: f64,
+    /// The bank it was compared with.
+    pub bank_id: String,
+    /// What it says of the wheel.
+    pub wheel: WheelPass,
+}
+
+/// A wheel the database knows, for the overview.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WheelSummary {
+    /// `<bogie_id>/leading` or `…/trailing`.
+    pub wheel_id: String,
+    /// Passes stored.
+    pub passes: usize,
+    /// The newest pass's time (RFC 3339).
+    pub last_time: String,
+    /// The newest pass's classes.
+    pub last_severity: Option<SeverityRange>,
+}
+
+/// Which passes of a wheel `history` fuses: the newest `last`, within `hours` of the newest.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Window {
+    /// At most this many passes (the newest).
+    pub last: usize,
+    /// Only passes within this many hours of the wheel's newest (all when `None`).
+    pub hours: Option<f64>,
+}
+
+/// An open results database.
+pub struct Db {
+    conn: Connection,
+    path: PathBuf,
+}
+
+impl Db {
+    /// Opens the database at `path`, creating it (and its schema) when there is no file or an
+    /// empty one; refuses a file that is not one.
+    pub fn open(path: &Path) -> Result<Db, DbError> {
+        Db::open_with(path, true)
+    }
+
+    /// Opens an existing database for reading and writing (never creates one).
+    pub fn open_existing(path: &Path) -> Result<Db, DbError> {
+        Db::open_with(path, false)
+    }
+
+    fn open_with(path: &Path, create: bool) -> Result<Db, DbError> {
+        let sql = |source| DbError::Sqlite {
+            path: path.to_path_buf(),
+            source,
+        };
+        let not_ours = |why: String| DbError::NotOurs {
+            path: path.to_path_buf(),
+            why,
+        };
+        let meta = std::fs::metadata(path).ok();
+        if let Some(m) = &meta {
+            if !m.is_file() {
+                return Err(not_ours("not a regular file".into()));
+            }
+        } else if !create {
+            return Err(DbError::Missing {
+                path: path.to_path_buf(),
+            });
+        }
+        let fresh = meta.is_none_or(|m| m.len() == 0);
+        let flags = OpenFlags::SQLITE_OPEN_READ_WRITE
+            | OpenFlags::SQLITE_OPEN_NO_MUTEX
+            | if create {
+                OpenFlags::SQLITE_OPEN_CREATE
+            } else {
+                OpenFlags::empty()
+            };
+        let conn = Connection::open_with_flags(path, flags).map_err(sql)?;
+        conn.busy_timeout(std::time::Duration::from_millis(BUSY_TIMEOUT_MS))
+            .map_err(sql)?;
+        // The first read tells an SQLite file from anything else.
+        let id: i32 = match conn.query_row("PRAGMA application_id", [], |r| r.get(0)) {
+            Ok(v) => v,
+            Err(rusqlite::Error::SqliteFailure(e, _))
+                if e.code == rusqlite::ErrorCode::NotADatabase =>
+            {
+                return Err(not_ours("not an SQLite file".into()));
+            }
+            Err(e) => return Err(sql(e)),
+        };
+        let version: i32 = conn
+            .query_row("PRAGMA user_version", [], |r| r.get(0))
+            .map_err(sql)?;
+        let tables: i64 = conn
+            .query_row("SELECT count(*) FROM sqlite_master", [], |r| r.get(0))
+            .map_err(sql)?;
+        if id == 0 && version == 0 && tables == 0 {
+            // An empty SQLite file (or none): made ours. Two processes may both find it empty;
+            // the second finds the schema inside its own transaction and leaves it.
+            let _ = fresh;
+            conn.pragma_update(None, "journal_mode", "WAL")
+                .map_err(sql)?;
+            let mut conn = conn;
+            let tx = conn
+                .transaction_with_behavior(TransactionBehavior::Immediate)
+                .map_err(sql)?;
+            let tables: i64 = tx
+                .query_row("SELECT count(*) FROM sqlite_master", [], |r| r.get(0))
+                .map_err(sql)?;
+            if tables == 0 {
+                tx.execute_batch(&format!(
+                    "{SCHEMA} PRAGMA application_id = {APPLICATION_ID}; PRAGMA user_version = {SCHEMA_VERSION};"
+                ))
+                .map_err(sql)?;
+            }
+            tx.commit().map_err(sql)?;
+            return Db::finish(conn, path);
+        } else if id != APPLICATION_ID {
+            return Err(not_ours(format!(
+                "an SQLite database of another application (application_id {id:#x}, {tables} schema objects; wheelflat's is {APPLICATION_ID:#x})"
+            )));
+        } else if version > SCHEMA_VERSION {
+            return Err(DbError::Newer {
+                path: path.to_path_buf(),
+                found: version,
+            });
+        } else if version != SCHEMA_VERSION {
+            return Err(not_ours(format!(
+                "schema version {version}, which no wheelflat writes"
+            )));
+        }
+        Db::finish(conn, path)
+    }
+
+    /// The settings every connection runs with.
+    fn finish(conn: Connection, path: &Path) -> Result<Db, DbError> {
+        let sql = |source| DbError::Sqlite {
+            path: path.to_path_buf(),
+            source,
+        };
+        conn.pragma_update(None, "journal_mode", "WAL")
+            .map_err(sql)?;
+        conn.pragma_update(None, "synchronous", "FULL")
+            .map_err(sql)?;
+        conn.pragma_update(None, "foreign_keys", "ON")
+            .map_err(sql)?;
+        Ok(Db {
+            conn,
+            path: path.to_path_buf(),
+        })
+    }
+
+    /// The file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    fn sql(&self, source: rusqlite::Error) -> DbError {
+        DbError::Sqlite {
+            path: self.path.clone(),
+            source,
+        }
+    }
+
+    /// Stores a pass and its two wheels in one transaction. `Ok(false)`: the pass was stored
+    /// before (same key), nothing written.
+    pub fn insert(&mut self, rec: &PassRecord) -> Result<bool, DbError> {
+        let path = self.path.clone();
+        let sql = |source| DbError::Sqlite {
+            path: path.clone(),
+            source,
+        };
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)
+            .map_err(sql)?;
+        let known: Option<i64> = tx
+            .query_row("SELECT id FROM passes WHERE key = ?1", [&rec.key], |r| {
+                r.get(0)
+            })
+            .optional()
+            .map_err(sql)?;
+        if known.is_some() {
+            return Ok(false);
+        }
+        let time = rfc3339(rec.time_s);
+        tx.execute(
+            "INSERT INTO passes (key, time, time_s, measurement, bank_id, speed_km_per_h, bank_speed_km_per_h, load_kn, bogie_id, summary) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)",
+            params![
+                rec.key,
+                time,
+                rec.time_s,
+                rec.measurement,
+                rec.bank_id,
+                rec.speed_km_per_h,
+                rec.bank_speed_km_per_h,
+                rec.load_kn,
+                rec.bogie_id,
+                rec.summary
+            ],
+        )
+        .map_err(sql)?;
+        let pass_id = tx.last_insert_rowid();
+        for w in &rec.wheels {
+            let space = serde_json::to_string(&w.space).expect("a space serialises");
+            tx.execute(
+                "INSERT INTO wheel_passes (pass_id, wheel, wheel_id, claim, l0_min_mm, l0_max_mm, severity_lowest, severity_highest, limit_l0_mm, space, cells, boxes) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)",
+                params![
+                    pass_id,
+                    w.wheel.name(),
+                    rec.bogie_id.as_ref().map(|b| format!("{b}/{}", w.wheel.name())),
+                    w.claim.as_str(),
+                    w.l0_mm.map(|r| r[0]),
+                    w.l0_mm.map(|r| r[1]),
+                    w.severity.map(|s| s.lowest.as_str()),
+                    w.severity.map(|s| s.highest.as_str()),
+                    w.limit_l0_mm,
+                    space,
+                    w.boxes.len() as i64,
+                    boxes_to_bytes(&w.boxes)
+                ],
+            )
+            .map_err(sql)?;
+        }
+        tx.commit().map_err(sql)?;
+        Ok(true)
+    }
+
+    /// Passes stored (all wheels, named or not).
+    pub fn pass_count(&self) -> Result<usize, DbError> {
+        self.conn
+            .query_row("SELECT count(*) FROM passes", [], |r| r.get::<_, i64>(0))
+            .map(|n| n as usize)
+            .map_err(|e| self.sql(e))
+    }
+
+    /// Every named wheel with its number of passes and newest class, by wheel id.
+    pub fn wheels(&self) -> Result<Vec<WheelSummary>, DbError> {
+        let mut st = self
+            .conn
+            .prepare(
+                "SELECT w.wheel_id, count(*), max(p.time_s),
+                   (SELECT p2.time || '|' || coalesce(w2.severity_lowest, '') || '|' || coalesce(w2.severity_highest, '')
+                      FROM wheel_passes w2 JOIN passes p2 ON p2.id = w2.pass_id
+                      WHERE w2.wheel_id = w.wheel_id ORDER BY p2.time_s DESC, p2.id DESC LIMIT 1)
+                 FROM wheel_passes w JOIN passes p ON p.id = w.pass_id
+                 WHERE w.wheel_id IS NOT NULL GROUP BY w.wheel_id ORDER BY w.wheel_id",
+            )
+            .map_err(|e| self.sql(e))?;
+        let rows = st
+            .query_map([], |r| {
+                Ok((
+                    r.get::<_, String>(0)?,
+                    r.get::<_, i64>(1)?,
+                    r.get::<_, String>(3)?,
+                ))
+            })
+            .map_err(|e| self.sql(e))?;
+        let mut out = Vec::new();
+        for row in rows {
+            let (wheel_id, n, last) = row.map_err(|e| self.sql(e))?;
+            let mut parts = last.splitn(3, '|');
+            let time = parts.next().unwrap_or_default().to_string();
+            let lo = parts.next().and_then(severity_of);
+            let hi = parts.next().and_then(severity_of);
+            out.push(WheelSummary {
+                wheel_id,
+                passes: n as usize,
+                last_time: time,
+                last_severity: lo
+                    .zip(hi)
+                    .map(|(lowest, highest)| SeverityRange { lowest, highest }),
+            });
+        }
+        Ok(out)
+    }
+
+    /// The passes of one wheel in `window`, oldest first.
+    pub fn wheel_passes(&self, wheel_id: &str, window: Window) -> Result<Vec<StoredPass>, DbError> {
+        let last = window.last.clamp(1, MAX_WINDOW_PASSES) as i64;
+        let mut st = self
+            .conn
+            .prepare(
+                "SELECT p.id, p.time, p.time_s, p.measurement, p.speed_km_per_h, p.bank_speed_km_per_h, p.bank_id,
+                        w.wheel, w.claim, w.l0_min_mm, w.l0_max_mm, w.severity_lowest, w.severity_highest,
+                        w.limit_l0_mm, w.space, w.cells, w.boxes
+                 FROM wheel_passes w JOIN passes p ON p.id = w.pass_id
+                 WHERE w.wheel_id = ?1 ORDER BY p.time_s DESC, p.id DESC LIMIT ?2",
+            )
+            .map_err(|e| self.sql(e))?;
+        let rows = st
+            .query_map(params![wheel_id, last], |r| {
+                Ok(RawRow {
+                    pass_id: r.get(0)?,
+                    time: r.get(1)?,
+                    time_s: r.get(2)?,
+                    measurement: r.get(3)?,
+                    speed: r.get(4)?,
+                    bank_speed: r.get(5)?,
+                    bank_id: r.get(6)?,
+                    wheel: r.get(7)?,
+                    claim: r.get(8)?,
+                    l0: (r.get(9)?, r.get(10)?),
+                    severity: (r.get(11)?, r.get(12)?),
+                    limit: r.get(13)?,
+                    space: r.get(14)?,
+                    cells: r.get(15)?,
+                    boxes: r.get(16)?,
+                })
+            })
+            .map_err(|e| self.sql(e))?;
+        let mut out = Vec::new();
+        for row in rows {
+            let row = row.map_err(|e| self.sql(e))?;
+            out.push(row.parse(&self.path)?);
+        }
+        if let (Some(h), Some(newest)) = (window.hours, out.first().map(|p| p.time_s)) {
+            out.retain(|p| p.time_s >= newest - h * 3600.0);
+        }
+        out.reverse();
+        Ok(out)
+    }
+}
+
+/// A row as read, checked by [`RawRow::parse`].
+struct RawRow {
+    pass_id: i64,
+    time: String,
+    time_s: f64,
+    measurement: String,
+    speed: Option<f64>,
+    bank_speed: f64,
+    bank_id: String,
+    wheel: String,
+    claim: String,
+    l0: (Option<f64>, Option<f64>),
+    severity: (Option<String>, Option<String>),
+    limit: Option<f64>,
+    space: String,
+    cells: i64,
+    boxes: Vec<u8>,
+}
+
+impl RawRow {
+    /// The stored pass, every value checked before it is trusted.
+    fn parse(self, path: &Path) -> Result<StoredPass, DbError> {
+        let bad = |what: String| DbError::Corrupt {
+            path: path.to_path_buf(),
+            pass: self.pass_id,
+            what,
+        };
+        let wheel = match self.wheel.as_str() {
+            "leading" => WheelPosition::Leading,
+            "trailing" => WheelPosition::Trailing,
+            w => return Err(bad(format!("wheel `{w}` is neither leading nor trailing"))),
+        };
+        let claim = Claim::parse(&self.claim)
+            .ok_or_else(|| bad(format!("claim `{}` unknown", self.claim)))?;
+        let space: Space = serde_json::from_str(&self.space)
+            .map_err(|e| bad(format!("space `{}`: {e}", self.space)))?;
+        let boxes = boxes_from_bytes(&self.boxes).ok_or_else(|| {
+            bad(format!(
+                "{} bytes of cells are not whole, ordered boxes",
+                self.boxes.len()
+            ))
+        })?;
+        if boxes.len() as i64 != self.cells {
+            return Err(bad(format!(
+                "{} cells stored, {} counted",
+                boxes.len(),
+                self.cells
+            )));
+        }
+        let severity = match self.severity {
+            (Some(lo), Some(hi)) => Some(SeverityRange {
+                lowest: severity_of(&lo).ok_or_else(|| bad(format!("severity `{lo}`")))?,
+                highest: severity_of(&hi).ok_or_else(|| bad(format!("severity `{hi}`")))?,
+            }),
+            _ => None,
+        };
+        if !self.time_s.is_finite() {
+            return Err(bad("time is not a finite number".into()));
+        }
+        Ok(StoredPass {
+            pass_id: self.pass_id,
+            time: self.time,
+            time_s: self.time_s,
+            measurement: self.measurement,
+            speed_km_per_h: self.speed,
+            bank_speed_km_per_h: self.bank_speed,
+            bank_id: self.bank_id,
+            wheel: WheelPass {
+                wheel,
+                claim,
+                l0_mm: self.l0.0.zip(self.l0.1).map(|(a, b)| [a, b]),
+                severity,
+                space,
+                limit_l0_mm: self.limit,
+                boxes,
+            },
+        })
+    }
+}
+
+fn severity_of(s: &str) -> Option<Severity> {
+    [
+        Severity::None,
+        Severity::Monitor,
+        Severity::Inspect,
+        Severity::Urgent,
+    ]
+    .into_iter()
+    .find(|c| c.as_str() == s)
+}
+
+/// RFC 3339 in UTC with milliseconds of Unix seconds.
+pub fn rfc3339(time_s: f64) -> String {
+    let ms = (time_s * 1e3).round() as i64;
+    chrono::DateTime::from_timestamp_millis(ms)
+        .map(|t| t.to_rfc3339_opts(chrono::SecondsFormat::Millis, true))
+        .unwrap_or_else(|| format!("{time_s}"))
+}
+
+/// Now, in Unix seconds.
+pub fn now_s() -> f64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64())
+}

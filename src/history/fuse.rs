@@ -1,0 +1,518 @@
+//! Fusing the passes of one wheel: the flat's (L, d, c) must fit every pass, wherever each
+//! pass struck the rail and at whatever speed, so the joint answer is what the passes allow
+//! together.
+//!
+//! Each pass allows a set of hypotheses: no flat, a flat below the population, and flat sizes
+//! — the union of its surviving cells in (L, d, c), marked on a grid over the population
+//! (a grid cell is allowed when a surviving cell touches it: never narrower than the pass).
+//! A pass with no flat detected allows no flat, a flat below the population, and flats below
+//! its detection limit; a pass that puts the flat on the other wheel allows no flat here. A
+//! refuted or unseen pass says nothing and is named, not counted.
+//!
+//! The rule ([`FusionRule`]): `all-but-one` (the default) keeps what every pass but at most
+//! one allows once there are three or more passes, so one pass that lost the truth (about one
+//! in twenty) cannot take it out of the joint answer; `all` keeps what every pass allows. When
+//! the passes have nothing in common the answer says why instead of coming out empty: the
+//! newest passes that agree, against older ones wholly below (the flat **grew**) or above
+//! (**smaller**: re-profiled, or a pass that lost the flat), else the one pass out, else that
+//! they disagree — acting on the highest class any of them allows.
+
+use super::grid::{all_of, at_least, Grid, Hyp};
+use super::record::WheelPass;
+use crate::identify::{Severity, SeverityRange};
+use serde::{Deserialize, Serialize};
+
+/// Grid bins in L, d and c over the population (d finest: L0 is read from it; 0.01 mm of d is
+/// under 0.5 mm of L0 above 20 mm).
+pub const BINS: [usize; 3] = [64, 90, 16];
+
+/// How passes are combined.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FusionRule {
+    /// What every pass allows.
+    All,
+    /// With three passes or more, what every pass but at most one allows.
+    #[default]
+    AllButOne,
+}
+
+impl FusionRule {
+    /// The name on the command line and in the JSON.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            FusionRule::All => "all",
+            FusionRule::AllButOne => "all-but-one",
+        }
+    }
+}
+
+/// How the passes relate.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case", tag = "kind")]
+pub enum Agreement {
+    /// Every pass allows the joint answer.
+    Consistent,
+    /// One pass has nothing in common with the others (it lost the flat, or shows something
+    /// the model lacks); the answer is the others'.
+    OddPass {
+        /// Its place in the window (0: the oldest).
+        pass: usize,
+    },
+    /// The newest passes agree with one another and not with the older ones: the flat
+    /// changed after pass `since − 1`; the answer is the newest passes'.
+    Changed {
+        /// The first pass of the newest run.
+        since: usize,
+        /// `true`: grew (the newest L0 wholly above the older); `false`: smaller.
+        grew: bool,
+    },
+    /// No pass but one agrees with the others, and no change explains it.
+    Disagree,
+    /// No pass says anything of this wheel (all refuted or unseen).
+    NoInformation,
+}
+
+/// The joint answer of a wheel's passes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Joint {
+    /// The rule applied.
+    pub rule: FusionRule,
+    /// How the passes relate.
+    pub agreement: Agreement,
+    /// The passes whose hypotheses the answer is made of (places in the window).
+    pub passes_used: Vec<usize>,
+    /// Passes left out because they say nothing (refuted or unseen).
+    pub passes_silent: Vec<usize>,
+    /// The answer allows a good wheel.
+    pub no_flat: bool,
+    /// The answer allows a flat below the population's smallest.
+    pub below: bool,
+    /// The flat sizes allowed, when any: L, d, c and L0 ranges (mm).
+    pub length_mm: Option<[f64; 2]>,
+    /// d (mm).
+    pub depth_mm: Option<[f64; 2]>,
+    /// c (mm).
+    pub curvature_mm: Option<[f64; 2]>,
+    /// L0 (mm), from the depth range.
+    pub l0_mm: Option<[f64; 2]>,
+    /// The classes the answer spans and the one acted on.
+    pub severity: Option<SeverityRange>,
+    /// The answer in words.
+    pub words: String,
+    #[serde(skip)]
+    set: Option<(Grid, Hyp)>,
+}
+
+impl Joint {
+    /// Whether the answer allows a flat of (L, d, c) (mm) — a good wheel with `None`.
+    pub fn allows(&self, flat: Option<[f64; 3]>) -> bool {
+        let Some((grid, h)) = &self.set else {
+            return false;
+        };
+        match flat {
+            None => h.none,
+            Some(x) if x[1] < grid.space.depth_mm[0] => h.below,
+            Some(x) => grid.index(x).is_some_and(|i| h.get(i)),
+        }
+    }
+}
+
+/// Fuses one wheel's passes (oldest first) under `rule`, with the L0 class limits (mm).
+pub fn fuse(
+    passes: &[WheelPass],
+    rule: FusionRule,
+    urgent_l0_mm: f64,
+    inspect_l0_mm: f64,
+) -> Joint {
+    let silent: Vec<usize> = (0..passes.len())
+        .filter(|&i| !passes[i].claim.informative())
+        .collect();
+    let used: Vec<usize> = (0..passes.len())
+        .filter(|&i| passes[i].claim.informative())
+        .collect();
+    let mut joint = Joint {
+        rule,
+        agreement: Agreement::NoInformation,
+        passes_used: Vec::new(),
+        passes_silent: silent.clone(),
+        no_flat: false,
+        below: false,
+        length_mm: None,
+        depth_mm: None,
+        curvature_mm: None,
+        l0_mm: None,
+        severity: None,
+        words: String::new(),
+        set: None,
+    };
+    if used.is_empty() {
+        // Refuted passes are inspected; unseen ones give no class.
+        joint.severity = passes
+            .iter()
+            .filter_map(|p| p.severity)
+            .reduce(SeverityRange::union);
+        joint.words = format!(
+            "no joint answer: none of the {} passes says anything of this wheel's flat (refuted or not seen)",
+            passes.len()
+        );
+        return joint;
+    }
+    let refs: Vec<&WheelPass> = used.iter().map(|&i| &passes[i]).collect();
+    let grid = Grid::over(&refs);
+    let hyps: Vec<Hyp> = refs.iter().map(|p| Hyp::of(p, &grid)).collect();
+    let n = hyps.len();
+    let strict = all_of(hyps.iter(), &grid);
+    let robust = |idx: &[usize]| -> Hyp {
+        let hs: Vec<&Hyp> = idx.iter().map(|&i| &hyps[i]).collect();
+        match (rule, hs.len()) {
+            (FusionRule::AllButOne, m) if m >= 3 => at_least(&hs, m - 1, &grid),
+            _ => all_of(hs.into_iter(), &grid),
+        }
+    };
+    let all: Vec<usize> = (0..n).collect();
+    let (agreement, members, set) = if !strict.is_empty() {
+        (Agreement::Consistent, all.clone(), robust(&all))
+    } else {
+        explain(&hyps, &grid, robust)
+    };
+    let mut severity = class_of(&set, &grid, urgent_l0_mm, inspect_l0_mm);
+    // A single newest pass cannot overturn older ones downwards: act on the highest of both.
+    if let Agreement::Changed { since, grew: false } = agreement {
+        if n - since < 2 {
+            let older = all_of(hyps[..since].iter(), &grid);
+            severity = match (
+                severity,
+                class_of(&older, &grid, urgent_l0_mm, inspect_l0_mm),
+            ) {
+                (Some(a), Some(b)) => Some(a.union(b)),
+                (a, b) => a.or(b),
+            };
+        }
+    }
+    if matches!(agreement, Agreement::Disagree) {
+        severity = passes
+            .iter()
+            .filter_map(|p| p.severity)
+            .chain(severity)
+            .reduce(SeverityRange::union);
+    }
+    let ranges = set.ranges(&grid);
+    joint.agreement = agreement;
+    joint.passes_used = members.iter().map(|&i| used[i]).collect();
+    joint.no_flat = set.none;
+    joint.below = set.below;
+    joint.length_mm = ranges.map(|r| r[0]);
+    joint.depth_mm = ranges.map(|r| r[1]);
+    joint.curvature_mm = ranges.map(|r| r[2]);
+    joint.l0_mm = set.l0(&grid);
+    joint.severity = severity;
+    joint.words = words(&joint, &used, passes.len());
+    joint.set = Some((grid, set));
+    joint
+}
+
+/// Why the passes have nothing in common, and the answer then: a change (newest run against
+/// older passes wholly below or above it), one pass out, or disagreement (every hypothesis any
+/// pass allows).
+fn explain(
+    hyps: &[Hyp],
+    grid: &Grid,
+    robust: impl Fn(&[usize]) -> Hyp,
+) -> (Agreement, Vec<usize>, Hyp) {
+    let n = hyps.len();
+    // The window cut into runs that agree, from the newest back: each run as long as its
+    // passes have something in common.
+    let mut runs: Vec<(usize, usize, Hyp)> = Vec::new(); // (first, end, what they share)
+    let mut end = n;
+    while end > 0 {
+        let mut first = end - 1;
+        let mut acc = hyps[first].clone();
+        while first > 0 {
+            let next = acc.and(&hyps[first - 1]);
+            if next.is_empty() {
+                break;
+            }
+            acc = next;
+            first -= 1;
+        }
+        runs.push((first, end, acc));
+        end = first;
+    }
+    runs.reverse();
+    // A change: every run wholly above (grew) or below (smaller) the one before it in L0.
+    if runs.len() >= 2 {
+        let l0: Vec<Option<[f64; 2]>> = runs.iter().map(|r| r.2.l0(grid)).collect();
+        if l0.iter().all(Option::is_some) {
+            let l0: Vec<[f64; 2]> = l0.into_iter().flatten().collect();
+            let grew = l0
+                .windows(2)
+                .all(|w| w[1][0] >= w[0][1] && w[1][1] > w[0][1]);
+            let shrank = l0
+                .windows(2)
+                .all(|w| w[1][1] <= w[0][0] && w[1][0] < w[0][0]);
+            if grew || shrank {
+                let since = runs[runs.len() - 1].0;
+                let run: Vec<usize> = (since..n).collect();
+                return (
+                    Agreement::Changed { since, grew },
+                    run.clone(),
+                    robust(&run),
+                );
+            }
+        }
+    }
+    let outs: Vec<usize> = (0..n)
+        .filter(|&i| !all_of((0..n).filter(|&j| j != i).map(|j| &hyps[j]), grid).is_empty())
+        .collect();
+    if let [i] = outs.as_slice() {
+        let rest: Vec<usize> = (0..n).filter(|j| j != i).collect();
+        let set = all_of(rest.iter().map(|&j| &hyps[j]), grid);
+        return (Agreement::OddPass { pass: *i }, rest, set);
+    }
+    let every: Vec<&Hyp> = hyps.iter().collect();
+    (
+        Agreement::Disagree,
+        (0..n).collect(),
+        at_least(&every, 1, grid),
+    )
+}
+
+/// The classes a set spans.
+fn class_of(h: &Hyp, grid: &Grid, urgent: f64, inspect: f64) -> Option<SeverityRange> {
+    let mut r: Option<SeverityRange> = None;
+    let mut add = |s: SeverityRange| r = Some(r.map_or(s, |r| r.union(s)));
+    if h.none {
+        add(SeverityRange::single(Severity::None));
+    }
+    if h.below {
+        add(SeverityRange::of_l0(
+            [0.0, grid.space.floor_l0_mm()],
+            urgent,
+            inspect,
+        ));
+    }
+    if let Some(d) = h.ranges(grid).map(|x| x[1]) {
+        add(SeverityRange::of_l0(
+            [grid.space.l0_mm(d[0]), grid.space.l0_mm(d[1])],
+            urgent,
+            inspect,
+        ));
+    }
+    r
+}
+
+/// The joint answer in words; `used` maps places among the informative passes to the window.
+fn words(j: &Joint, used: &[usize], total: usize) -> String {
+    let name = |i: usize| format!("pass {}", used[i] + 1);
+    let mut allowed = Vec::new();
+    if j.no_flat {
+        allowed.push("no flat".to_string());
+    }
+    if j.below {
+        allowed.push("a flat below the population".to_string());
+    }
+    if let (Some(l), Some(l0)) = (j.length_mm, j.l0_mm.filter(|_| j.depth_mm.is_some())) {
+        let d = j.depth_mm.expect("a flat set has its depth range");
+        allowed.push(format!(
+            "a flat of L in [{:.0}, {:.0}] mm, d in [{:.2}, {:.2}] mm (L0 up to {:.0} mm)",
+            l[0], l[1], d[0], d[1], l0[1]
+        ));
+    }
+    let answer = if allowed.is_empty() {
+        "nothing".to_string()
+    } else {
+        allowed.join(", or ")
+    };
+    let severity = j.severity.map_or("no class".into(), |s| s.words());
+    let silent = if j.passes_silent.is_empty() {
+        String::new()
+    } else {
+        let names: Vec<String> = j
+            .passes_silent
+            .iter()
+            .map(|i| format!("pass {}", i + 1))
+            .collect();
+        format!(" ({} left out: refuted or not seen)", names.join(", "))
+    };
+    let head = match &j.agreement {
+        Agreement::Consistent => format!(
+            "{} of {total} passes fused ({} rule){silent}",
+            used.len(),
+            j.rule.as_str()
+        ),
+        Agreement::OddPass { pass } => format!(
+            "{} has nothing in common with the other passes (it lost the flat, or shows something the model lacks); the others fused{silent}",
+            name(*pass)
+        ),
+        Agreement::Changed { since, grew: true } => format!(
+            "CHANGED: the flat grew after {} — the passes since agree with one another, not with the older ones; the answer is theirs{silent}",
+            name(since - 1)
+        ),
+        Agreement::Changed { since, grew: false } => format!(
+            "CHANGED: smaller since {} (re-profiled, or a pass that lost the flat); the answer is the passes since, acting on the older class until two passes agree{silent}",
+            name(*since)
+        ),
+        Agreement::Disagree => format!(
+            "the passes disagree (no pass but one, and no change, explains it): every answer any pass allows is kept{silent}"
+        ),
+        Agreement::NoInformation => "no pass says anything of this wheel".into(),
+    };
+    format!("{head}: {answer} — {severity}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::history::record::{Claim, Space};
+    use crate::model::WheelPosition;
+
+    fn space() -> Space {
+        Space {
+            length_mm: [10.0, 200.0],
+            depth_mm: [0.1, 1.0],
+            curvature_mm: [0.0, 0.5],
+            wheel_radius_m: 0.46,
+        }
+    }
+
+    /// A flat pass whose cells form one box around (L, d), c over [0, 0.1].
+    fn flat(l: [f32; 2], d: [f32; 2]) -> WheelPass {
+        let s = space();
+        WheelPass {
+            wheel: WheelPosition::Leading,
+            claim: Claim::Flat,
+            l0_mm: Some([s.l0_mm(d[0].into()), s.l0_mm(d[1].into())]),
+            severity: None,
+            space: s,
+            limit_l0_mm: None,
+            boxes: vec![[l[0], l[1], d[0], d[1], 0.0, 0.1]],
+        }
+    }
+
+    fn good() -> WheelPass {
+        WheelPass {
+            claim: Claim::None,
+            boxes: Vec::new(),
+            l0_mm: None,
+            ..flat([0.0, 0.0], [0.1, 0.1])
+        }
+    }
+
+    const TRUTH: [f64; 3] = [60.0, 0.5, 0.05];
+
+    #[test]
+    fn the_joint_answer_is_narrower_than_each_pass_and_holds_the_truth() {
+        let passes = [
+            flat([40.0, 80.0], [0.40, 0.60]),
+            flat([50.0, 90.0], [0.45, 0.65]),
+            flat([30.0, 70.0], [0.35, 0.55]),
+        ];
+        let j = fuse(&passes, FusionRule::All, 40.0, 25.0);
+        assert_eq!(j.agreement, Agreement::Consistent);
+        assert!(j.allows(Some(TRUTH)));
+        let d = j.depth_mm.unwrap();
+        // [0.45, 0.55] up to one grid bin (0.01 mm) each side.
+        assert!(
+            (d[0] - 0.45).abs() <= 0.011 && (d[1] - 0.55).abs() <= 0.011,
+            "{d:?}"
+        );
+        assert!(!j.no_flat && !j.below);
+    }
+
+    #[test]
+    fn one_pass_that_lost_the_truth_cannot_take_it_out_under_all_but_one() {
+        let passes = [
+            flat([40.0, 80.0], [0.40, 0.60]),
+            flat([150.0, 190.0], [0.40, 0.60]), // lost it: another length
+            flat([30.0, 70.0], [0.35, 0.55]),
+        ];
+        let robust = fuse(&passes, FusionRule::AllButOne, 40.0, 25.0);
+        assert!(robust.allows(Some(TRUTH)), "{}", robust.words);
+        // Under `all` the odd pass is named and the others' answer kept.
+        let strict = fuse(&passes, FusionRule::All, 40.0, 25.0);
+        assert_eq!(
+            strict.agreement,
+            Agreement::OddPass { pass: 1 },
+            "{}",
+            strict.words
+        );
+        assert!(strict.allows(Some(TRUTH)));
+        assert!(strict.words.contains("pass 2 has nothing in common"));
+    }
+
+    #[test]
+    fn a_flat_that_grew_is_reported_as_changed_not_as_an_empty_answer() {
+        let s = space();
+        let passes = [
+            good(),
+            flat([20.0, 40.0], [0.12, 0.16]), // L0 about 21–24 mm
+            flat([20.0, 45.0], [0.11, 0.17]),
+            flat([60.0, 90.0], [0.60, 0.80]), // L0 about 47–54 mm
+            flat([55.0, 95.0], [0.62, 0.85]),
+        ];
+        let j = fuse(&passes, FusionRule::AllButOne, 40.0, 25.0);
+        assert_eq!(
+            j.agreement,
+            Agreement::Changed {
+                since: 3,
+                grew: true
+            },
+            "{}",
+            j.words
+        );
+        assert_eq!(j.passes_used, vec![3, 4]);
+        let sev = j.severity.unwrap();
+        assert_eq!(sev.highest, Severity::Urgent);
+        assert!(
+            j.words.starts_with("CHANGED: the flat grew after pass 3"),
+            "{}",
+            j.words
+        );
+        assert!(j.l0_mm.unwrap()[0] > s.l0_mm(0.55));
+    }
+
+    #[test]
+    fn good_passes_keep_a_good_wheel_good_and_refuted_passes_are_named() {
+        let refuted = WheelPass {
+            claim: Claim::Refuted,
+            severity: Some(SeverityRange::single(Severity::Inspect)),
+            ..good()
+        };
+        let j = fuse(
+            &[good(), refuted, good(), good()],
+            FusionRule::AllButOne,
+            40.0,
+            25.0,
+        );
+        assert_eq!(j.agreement, Agreement::Consistent);
+        assert_eq!(j.passes_silent, vec![1]);
+        assert!(j.no_flat && j.allows(None));
+        assert_eq!(
+            j.severity.unwrap().highest,
+            Severity::Monitor.max(j.severity.unwrap().highest)
+        );
+        assert!(j.words.contains("pass 2 left out"));
+        // No pass with anything to say: no joint answer, the refuted pass inspected.
+        let none = fuse(
+            &[WheelPass {
+                claim: Claim::Refuted,
+                ..good()
+            }],
+            FusionRule::All,
+            40.0,
+            25.0,
+        );
+        assert_eq!(none.agreement, Agreement::NoInformation);
+    }
+
+    #[test]
+    fn a_clean_pass_allows_flats_below_its_detection_limit() {
+        let mut clean = good();
+        clean.limit_l0_mm = Some(30.0);
+        let passes = [clean, flat([20.0, 40.0], [0.12, 0.16])];
+        let j = fuse(&passes, FusionRule::All, 40.0, 25.0);
+        assert_eq!(j.agreement, Agreement::Consistent, "{}", j.words);
+        assert!(j.allows(Some([30.0, 0.14, 0.05])));
+    }
+}

@@ -1,0 +1,14 @@
+//! A wheel's history: each pass stored in a results database ([`db`]), what it says of each
+//! wheel of its bogie ([`record`]), and the passes of one wheel fused into one answer
+//! ([`fuse`]) — the flat's (L, d, c) must fit every pass, so the joint answer narrows as the
+//! passes come (docs/history.md).
+
+pub mod consist;
+pub mod db;
+pub mod fuse;
+mod grid;
+pub mod record;
+
+pub use db::{Db, DbError, StoredPass, Window};
+pub use fuse::{fuse, Agreement, FusionRule, Joint};
+pub use record::{Claim, PassMeta, PassRecord, Space, WheelPass};

@@ -1,0 +1,216 @@
+//! A wheel's history for people: each stored pass's answer and the joint answer as a table,
+//! the same as JSON, and the trend figure (each pass's L0 range over time, the joint range,
+//! the class limits).
+
+use super::canvas::{msg, render_png};
+use super::PlotError;
+use crate::history::{Joint, StoredPass};
+use plotters::prelude::*;
+use serde::Serialize;
+use std::path::Path;
+
+/// One pass in the history's JSON.
+#[derive(Debug, Clone, Serialize)]
+pub struct PassLine {
+    /// Its place in the window, 1 = the oldest.
+    pub pass: usize,
+    /// When it was identified (RFC 3339).
+    pub time: String,
+    /// The measurement file.
+    pub measurement: String,
+    /// Its speed (km/h).
+    pub speed_km_per_h: Option<f64>,
+    /// The bank's speed (km/h).
+    pub bank_speed_km_per_h: f64,
+    /// What it says of the wheel.
+    pub claim: crate::history::Claim,
+    /// Its L0 range (mm).
+    pub l0_mm: Option<[f64; 2]>,
+    /// Its classes.
+    pub severity: Option<crate::identify::SeverityRange>,
+    /// Surviving cells stored.
+    pub cells: usize,
+}
+
+/// The history's JSON: the wheel, its passes, the joint answer.
+#[derive(Debug, Clone, Serialize)]
+pub struct HistoryReport {
+    /// The wheel id.
+    pub wheel: String,
+    /// The passes fused, oldest first.
+    pub passes: Vec<PassLine>,
+    /// The joint answer.
+    pub joint: Joint,
+    /// The class limits used (mm): inspect, urgent.
+    pub limits_l0_mm: [f64; 2],
+}
+
+impl HistoryReport {
+    /// The report of a wheel's stored passes and their joint answer.
+    pub fn new(wheel: &str, passes: &[StoredPass], joint: Joint, limits_l0_mm: [f64; 2]) -> Self {
+        HistoryReport {
+            wheel: wheel.to_string(),
+            passes: passes
+                .iter()
+                .enumerate()
+                .map(|(i, p)| PassLine {
+                    pass: i + 1,
+                    time: p.time.clone(),
+                    measurement: p.measurement.clone(),
+                    speed_km_per_h: p.speed_km_per_h,
+                    bank_speed_km_per_h: p.bank_speed_km_per_h,
+                    claim: p.wheel.claim,
+                    l0_mm: p.wheel.l0_mm,
+                    severity: p.wheel.severity,
+                    cells: p.wheel.boxes.len(),
+                })
+                .collect(),
+            joint,
+            limits_l0_mm,
+        }
+    }
+
+    /// The table and the joint answer for people.
+    pub fn text(&self) -> String {
+        let mut s = format!(
+            "wheel {}: {} passes (oldest first)\n{:<5} {:<24} {:>7}  {:<13} {:<16} {}\n",
+            self.wheel,
+            self.passes.len(),
+            "pass",
+            "time",
+            "km/h",
+            "claim",
+            "L0 (mm)",
+            "severity"
+        );
+        for p in &self.passes {
+            let l0 = p
+                .l0_mm
+                .map_or("—".into(), |r| format!("[{:.0}, {:.0}]", r[0], r[1]));
+            s += &format!(
+                "{:<5} {:<24} {:>7}  {:<13} {:<16} {}\n",
+                p.pass,
+                p.time,
+                p.speed_km_per_h.map_or("—".into(), |v| format!("{v:.1}")),
+                p.claim.as_str(),
+                l0,
+                p.severity.map_or("—".into(), |c| c.words())
+            );
+        }
+        let l0 = self
+            .joint
+            .l0_mm
+            .map_or("—".into(), |r| format!("[{:.0}, {:.0}] mm", r[0], r[1]));
+        s += &format!(
+            "joint: L0 {l0}; severity {}\n{}\n",
+            self.joint.severity.map_or("—".into(), |c| c.words()),
+            self.joint.words
+        );
+        s
+    }
+}
+
+/// Draws the trend: each pass's L0 range (a bar at its place in the window, grey when the
+/// joint answer leaves it out), the joint L0 range (a band over the passes it is made of), the
+/// class limits (dashed). A PNG, written atomically.
+pub fn draw_trend(r: &HistoryReport, path: &Path) -> Result<(), PlotError> {
+    let top = r
+        .passes
+        .iter()
+        .filter_map(|p| p.l0_mm.map(|l| l[1]))
+        .chain(r.joint.l0_mm.map(|l| l[1]))
+        .fold(r.limits_l0_mm[1] * 1.25, f64::max)
+        * 1.05;
+    let n = r.passes.len().max(1);
+    render_png(path, (1200, 700), |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(
+                format!("wheel {}: L0 per pass and joint", r.wheel),
+                ("sans-serif", 26),
+            )
+            .margin(20)
+            .x_label_area_size(50)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.5f64..n as f64 + 0.5, 0.0f64..top)
+            .map_err(msg)?;
+        chart
+            .configure_mesh()
+            .x_desc("pass (oldest first)")
+            .y_desc("fresh-flat length L0 (mm)")
+            .x_labels(n.min(20))
+            .x_label_formatter(&|x| format!("{x:.0}"))
+            .draw()
+            .map_err(msg)?;
+        // The joint band over the passes it is made of.
+        if let (Some(l0), Some(first), Some(last)) = (
+            r.joint.l0_mm,
+            r.joint.passes_used.iter().min(),
+            r.joint.passes_used.iter().max(),
+        ) {
+            let (a, b) = (*first as f64 + 0.6, *last as f64 + 1.4);
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(a, l0[0]), (b, l0[1])],
+                    RGBColor(120, 170, 230).mix(0.35).filled(),
+                )))
+                .map_err(msg)?
+                .label(format!("joint [{:.0}, {:.0}] mm", l0[0], l0[1]))
+                .legend(|(x, y)| {
+                    Rectangle::new(
+                        [(x, y - 5), (x + 15, y + 5)],
+                        RGBColor(120, 170, 230).filled(),
+                    )
+                });
+        }
+        for (name, v, c) in [
+            ("inspect", r.limits_l0_mm[0], RGBColor(220, 150, 0)),
+            ("urgent", r.limits_l0_mm[1], RGBColor(200, 0, 0)),
+        ] {
+            chart
+                .draw_series(DashedLineSeries::new(
+                    [(0.5, v), (n as f64 + 0.5, v)],
+                    8,
+                    5,
+                    c.stroke_width(2),
+                ))
+                .map_err(msg)?
+                .label(format!("{name} from {v:.0} mm"))
+                .legend(move |(x, y)| PathElement::new([(x, y), (x + 15, y)], c.stroke_width(2)));
+        }
+        for (i, p) in r.passes.iter().enumerate() {
+            let x = i as f64 + 1.0;
+            let used = r.joint.passes_used.contains(&i);
+            let colour = if used { BLACK } else { RGBColor(160, 160, 160) };
+            match p.l0_mm {
+                Some(l) => {
+                    chart
+                        .draw_series(std::iter::once(Rectangle::new(
+                            [(x - 0.08, l[0]), (x + 0.08, l[1])],
+                            colour.filled(),
+                        )))
+                        .map_err(msg)?;
+                }
+                None => {
+                    chart
+                        .draw_series(std::iter::once(Circle::new((x, 0.0), 6, colour.filled())))
+                        .map_err(msg)?;
+                }
+            }
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    p.claim.as_str().to_string(),
+                    (x - 0.2, top * 0.97),
+                    ("sans-serif", 16).into_font(),
+                )))
+                .map_err(msg)?;
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::LowerRight)
+            .draw()
+            .map_err(msg)?;
+        Ok(())
+    })
+}
