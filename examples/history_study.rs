@@ -11,7 +11,8 @@
 //! read back and fused as `history` does, under both rules. Printed per rule: the truth held,
 //! decisive (one class), under-stated (the class acted on below the truth's), the median
 //! joint L0 width, how the passes related, and the time of a joint answer from the database;
-//! beside it the single-pass figures on the same passes. `REFINE=1`: every pass refined
+//! beside it the single-pass figures on the same passes. `GOOD=N`: N good bogies too (both
+//! wheels fused; how many joint answers are `none`). `REFINE=1`: every pass refined
 //! (`identify --refine`) and its refined cells stored and fused.
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -20,7 +21,7 @@ use wheelflat::history::{fuse, Db, FusionRule, PassRecord, Window};
 use wheelflat::identify::coverage;
 use wheelflat::identify::family::Members;
 use wheelflat::identify::refine::{bank_simulator, refine as refine_answer, RefineSettings};
-use wheelflat::identify::synth::synthesize;
+use wheelflat::identify::synth::{synthesize, synthesize_pass, FieldNoise};
 use wheelflat::identify::{Extras, Measurement, Severity};
 use wheelflat::model::{CheckedCalibration, Flat, WheelPosition};
 
@@ -107,9 +108,34 @@ fn main() {
         std::fs::write(&part, &syn.csv).unwrap();
         std::fs::rename(&part, &csv).unwrap();
     });
+    // `GOOD=N`: N good bogies too, each seen PASSES times at its own speed.
+    let good: usize = std::env::var("GOOD").map_or(0, |v| v.parse().expect("GOOD"));
+    let good_cases: Vec<(usize, usize, f64)> = (0..good)
+        .flat_map(|g| (0..passes).map(move |p| (g, p)))
+        .map(|(g, p)| {
+            let s = v[0] + (v[1] - v[0]) * uniform(&mut state);
+            (g, p, (s * 10.0).round() / 10.0)
+        })
+        .collect();
+    good_cases.par_iter().for_each(|(g, p, speed)| {
+        let csv = cache.join(format!("g{g}-p{p}.csv"));
+        if csv.exists() {
+            return;
+        }
+        let mut doc = base.document().clone();
+        doc.run.speed_km_per_h = *speed;
+        let model = coverage::converged_model(&doc.check().expect("at speed"));
+        let seed = seed
+            .wrapping_mul(7000)
+            .wrapping_add((g * passes + p) as u64);
+        let syn = synthesize_pass(&model, None, seed, true, FieldNoise::TABLE).expect("simulated");
+        let part = cache.join(format!("g{g}-p{p}.csv.part"));
+        std::fs::write(&part, &syn.csv).unwrap();
+        std::fs::rename(&part, &csv).unwrap();
+    });
     println!(
         "{} passes simulated or cached in {:.0} s",
-        cases.len(),
+        cases.len() + good_cases.len(),
         started.elapsed().as_secs_f64()
     );
     // Identify and store every pass.
@@ -157,11 +183,64 @@ fn main() {
         single.push(judge(&one, flat, &base, insp, urg));
         db.insert(&rec).expect("stored");
     }
+    for (g, p, _) in &good_cases {
+        let csv = cache.join(format!("g{g}-p{p}.csv"));
+        let text = std::fs::read_to_string(&csv).unwrap();
+        let m = Measurement::from_csv(&csv, &text, rate).expect("csv");
+        let k = members.member_for_pass(&m, None, false).expect("a member");
+        let identifier = members.get(k);
+        let id = identifier
+            .identify(&m, None, Extras::NONE)
+            .expect("identified");
+        let rec = PassRecord::of(
+            &id,
+            identifier,
+            Some(&format!("G{g}")),
+            format!("g{g}-p{p}"),
+            t0 + (*g as f64) * 1e5 + (*p as f64) * 3600.0,
+        );
+        db.insert(&rec).expect("stored");
+    }
     println!(
         "{} passes stored in {}",
         db.pass_count().unwrap(),
         db_path.display()
     );
+    if good > 0 {
+        for rule in [FusionRule::AllButOne, FusionRule::All] {
+            let (mut quiet, mut flagged) = (0, Vec::new());
+            for g in 0..good {
+                for wheel in ["leading", "trailing"] {
+                    let stored = db
+                        .wheel_passes(
+                            &format!("G{g}/{wheel}"),
+                            Window {
+                                last: passes,
+                                hours: None,
+                            },
+                        )
+                        .expect("read");
+                    let wp: Vec<_> = stored.into_iter().map(|s| s.wheel).collect();
+                    let j = fuse(&wp, rule, urg, insp);
+                    let none = j.severity.is_some_and(|s| s.highest == Severity::None);
+                    if none && j.allows(None) {
+                        quiet += 1;
+                    } else {
+                        flagged.push(format!("G{g}/{wheel}: {}", j.words));
+                    }
+                }
+            }
+            println!(
+                "good wheels ({}): {quiet} of {} joint answers `none` (decisive){}",
+                rule.as_str(),
+                2 * good,
+                flagged
+                    .iter()
+                    .map(|f| format!("\n  {f}"))
+                    .collect::<String>()
+            );
+        }
+    }
     report("single pass", &single);
     for rule in [FusionRule::AllButOne, FusionRule::All] {
         let mut judged = Vec::new();
@@ -207,6 +286,60 @@ fn main() {
             times[times.len() - 1]
         );
     }
+    // The plain intersection the issue tried by hand: each pass's L and d ranges intersected
+    // (an empty intersection holds nothing and acts on the highest class any pass gives).
+    let mut judged = Vec::new();
+    for (w, truth) in truths.iter().enumerate() {
+        let wheel = truth.wheel().unwrap_or(WheelPosition::Trailing);
+        let stored = db
+            .wheel_passes(
+                &format!("W{w}/{}", wheel.name()),
+                Window {
+                    last: passes,
+                    hours: None,
+                },
+            )
+            .expect("read");
+        let mut r = [[f64::NEG_INFINITY, f64::INFINITY]; 2];
+        let mut highest = Severity::None;
+        for s in &stored {
+            highest = highest.max(s.wheel.severity.map_or(Severity::Inspect, |c| c.highest));
+            let b = &s.wheel.boxes;
+            let (l, d) = if b.is_empty() {
+                ([0.0, 0.0], [0.0, s.wheel.space.depth_mm[0]])
+            } else {
+                let f = |i: usize, j: usize| {
+                    b.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |a, x| {
+                        [a[0].min(f64::from(x[i])), a[1].max(f64::from(x[j]))]
+                    })
+                };
+                (f(0, 1), f(2, 3))
+            };
+            r = [
+                [r[0][0].max(l[0]), r[0][1].min(l[1])],
+                [r[1][0].max(d[0]), r[1][1].min(d[1])],
+            ];
+        }
+        let x = [truth.length_m() * 1e3, truth.depth_m() * 1e3];
+        let empty = r[0][0] > r[0][1] || r[1][0] > r[1][1];
+        let held = !empty && (0..2).all(|t| r[t][0] <= x[t] && x[t] <= r[t][1]);
+        let rad = base.vehicle.wheel_radius_m;
+        let l0r = [
+            Flat::fresh_length_mm(r[1][0].max(0.0), rad),
+            Flat::fresh_length_mm(r[1][1].max(0.0), rad),
+        ];
+        let classes = wheelflat::identify::SeverityRange::of_l0(l0r, urg, insp);
+        let truth_class = Severity::of_upper_l0(l0(truth, &base), urg, insp);
+        let acted = if empty { highest } else { classes.highest };
+        judged.push((
+            held,
+            !empty && classes.decisive(),
+            acted < truth_class,
+            if empty { f64::NAN } else { l0r[1] - l0r[0] },
+            held,
+        ));
+    }
+    report("plain intersection of the passes' ranges", &judged);
 }
 
 fn l0(f: &Flat, cal: &CheckedCalibration) -> f64 {

@@ -246,6 +246,61 @@ fn within_of(joint: &serde_json::Value, key: &str, v: f64) -> bool {
     r[0].as_f64().unwrap() <= v && v <= r[1].as_f64().unwrap()
 }
 
+#[test]
+fn a_flat_that_grows_between_passes_is_reported_as_changed_not_as_an_empty_answer() {
+    let (bank_dir, cal) = bank();
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("results.sqlite");
+    // Two passes of a shallow flat (d 0.31 mm, L0 33.8 mm), then two of a deep one (d 0.59
+    // mm, L0 46.6 mm): the wheel's flat grew between the second and the third pass.
+    let flats = [
+        (50.0, 0.31, 12.33),
+        (52.0, 0.31, 12.45),
+        (70.0, 0.59, 12.36),
+        (72.0, 0.59, 12.44),
+    ];
+    for (k, (l, d, x)) in flats.iter().enumerate() {
+        let flat = Flat::from_mm(*l, *d, 0.03, *x).unwrap();
+        let csv = synthesize(cal, &flat, 40 + k as u64, true).unwrap().csv;
+        let f = dir.path().join(format!("g{k}.csv"));
+        std::fs::write(&f, format!("# bogie_id = G1\n{csv}")).unwrap();
+        stdout_of(
+            &[
+                "identify",
+                "--bank",
+                bank_dir.to_str().unwrap(),
+                "--measured",
+                f.to_str().unwrap(),
+                "--out",
+                dir.path().join(format!("o{k}")).to_str().unwrap(),
+            ],
+            &db,
+        );
+    }
+    let out = dir.path().join("h");
+    let text = wheelflat()
+        .args(["history", "--wheel", "G1/trailing", "--db"])
+        .arg(&db)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(text.status.success());
+    let text = String::from_utf8_lossy(&text.stdout);
+    assert!(
+        text.contains("CHANGED: the flat grew after pass 2"),
+        "{text}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("history.json")).unwrap()).unwrap();
+    let joint = &json["joint"];
+    assert_eq!(joint["agreement"]["kind"], "changed", "{joint}");
+    assert_eq!(joint["passes_used"], serde_json::json!([2, 3]));
+    // The answer is the deep flat's: its depth held, the class acted on urgent.
+    assert!(within_of(joint, "depth_mm", 0.59), "{joint}");
+    assert_eq!(joint["severity"]["highest"], "urgent");
+}
+
 /// Drops a file into the inbox the way writers must: another name, then a rename.
 fn drop_file(inbox: &Path, name: &str, text: &str) {
     let part = inbox.join(format!(".{name}.part"));

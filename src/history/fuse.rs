@@ -18,7 +18,7 @@
 //! they disagree — acting on the highest class any of them allows.
 
 use super::grid::{all_of, at_least, Grid, Hyp};
-use super::record::WheelPass;
+use super::record::{Claim, WheelPass};
 use crate::identify::{Severity, SeverityRange};
 use serde::{Deserialize, Serialize};
 
@@ -176,7 +176,20 @@ pub fn fuse(
     } else {
         explain(&hyps, &grid, robust)
     };
-    let mut severity = class_of(&set, &grid, urgent_l0_mm, inspect_l0_mm);
+    // Without a pass that found a flat, the answer is a good wheel's, as one clean pass's is:
+    // flats below the detection limit are allowed (they are not ruled out), not acted on.
+    let found = |i: &usize| {
+        matches!(
+            refs[*i].claim,
+            Claim::Flat | Claim::FlatOrOther | Claim::Below
+        )
+    };
+    let any_found = members.iter().any(found);
+    let mut severity = if any_found {
+        class_of(&set, &grid, urgent_l0_mm, inspect_l0_mm)
+    } else {
+        Some(SeverityRange::single(Severity::None))
+    };
     // A single newest pass cannot overturn older ones downwards: act on the highest of both.
     if let Agreement::Changed { since, grew: false } = agreement {
         if n - since < 2 {
@@ -207,7 +220,7 @@ pub fn fuse(
     joint.curvature_mm = ranges.map(|r| r[2]);
     joint.l0_mm = set.l0(&grid);
     joint.severity = severity;
-    joint.words = words(&joint, &used, passes.len());
+    joint.words = words(&joint, &used, passes.len(), any_found);
     joint.set = Some((grid, set));
     joint
 }
@@ -303,7 +316,7 @@ fn class_of(h: &Hyp, grid: &Grid, urgent: f64, inspect: f64) -> Option<SeverityR
 }
 
 /// The joint answer in words; `used` maps places among the informative passes to the window.
-fn words(j: &Joint, used: &[usize], total: usize) -> String {
+fn words(j: &Joint, used: &[usize], total: usize, found: bool) -> String {
     let name = |i: usize| format!("pass {}", used[i] + 1);
     let mut allowed = Vec::new();
     if j.no_flat {
@@ -319,7 +332,17 @@ fn words(j: &Joint, used: &[usize], total: usize) -> String {
             l[0], l[1], d[0], d[1], l0[1]
         ));
     }
-    let answer = if allowed.is_empty() {
+    let answer = if !found && j.no_flat {
+        format!(
+            "no flat detected at any pass{}",
+            j.l0_mm
+                .filter(|r| r[1] > 0.0)
+                .map_or(String::new(), |r| format!(
+                    " (flats of L0 up to {:.0} mm are not ruled out)",
+                    r[1]
+                ))
+        )
+    } else if allowed.is_empty() {
         "nothing".to_string()
     } else {
         allowed.join(", or ")
@@ -364,7 +387,7 @@ fn words(j: &Joint, used: &[usize], total: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::history::record::{Claim, Space};
+    use crate::history::record::Space;
     use crate::model::WheelPosition;
 
     fn space() -> Space {
@@ -488,10 +511,8 @@ mod tests {
         assert_eq!(j.agreement, Agreement::Consistent);
         assert_eq!(j.passes_silent, vec![1]);
         assert!(j.no_flat && j.allows(None));
-        assert_eq!(
-            j.severity.unwrap().highest,
-            Severity::Monitor.max(j.severity.unwrap().highest)
-        );
+        // No pass found a flat: a good wheel's answer, `none`; the refuted pass is named.
+        assert_eq!(j.severity, Some(SeverityRange::single(Severity::None)));
         assert!(j.words.contains("pass 2 left out"));
         // No pass with anything to say: no joint answer, the refuted pass inspected.
         let none = fuse(
@@ -514,5 +535,16 @@ mod tests {
         let j = fuse(&passes, FusionRule::All, 40.0, 25.0);
         assert_eq!(j.agreement, Agreement::Consistent, "{}", j.words);
         assert!(j.allows(Some([30.0, 0.14, 0.05])));
+        // Clean passes alone allow those flats but act as a good wheel.
+        let mut clean = good();
+        clean.limit_l0_mm = Some(30.0);
+        let j = fuse(
+            &[clean.clone(), clean.clone(), clean],
+            FusionRule::AllButOne,
+            40.0,
+            25.0,
+        );
+        assert!(j.allows(None) && j.allows(Some([30.0, 0.14, 0.05])));
+        assert_eq!(j.severity, Some(SeverityRange::single(Severity::None)));
     }
 }
