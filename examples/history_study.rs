@@ -62,6 +62,7 @@ fn main() {
     let passes: usize = args.get(6).map_or(3, |s| s.parse().expect("PASSES"));
     let refine = std::env::var("REFINE").is_ok_and(|v| v == "1");
     let truths = coverage::truths_within(&base, wheels, seed, 0.0);
+    let phi = base.identification.phi;
     let (insp, urg) = (
         base.identification.inspect_l0_mm,
         base.identification.urgent_l0_mm,
@@ -179,7 +180,7 @@ fn main() {
         );
         let wheel = flat.wheel().expect("on a wheel");
         let wp = &rec.wheels[wheel.index()];
-        let one = fuse(std::slice::from_ref(wp), FusionRule::All, urg, insp);
+        let one = fuse(std::slice::from_ref(wp), FusionRule::All, phi, urg, insp);
         single.push(judge(&one, flat, &base, insp, urg));
         db.insert(&rec).expect("stored");
     }
@@ -207,7 +208,7 @@ fn main() {
         db_path.display()
     );
     if good > 0 {
-        for rule in [FusionRule::AllButOne, FusionRule::All] {
+        for rule in [FusionRule::Robust, FusionRule::All] {
             let (mut quiet, mut flagged) = (0, Vec::new());
             for g in 0..good {
                 for wheel in ["leading", "trailing"] {
@@ -221,7 +222,7 @@ fn main() {
                         )
                         .expect("read");
                     let wp: Vec<_> = stored.into_iter().map(|s| s.wheel).collect();
-                    let j = fuse(&wp, rule, urg, insp);
+                    let j = fuse(&wp, rule, phi, urg, insp);
                     let none = j.severity.is_some_and(|s| s.highest == Severity::None);
                     if none && j.allows(None) {
                         quiet += 1;
@@ -242,7 +243,7 @@ fn main() {
         }
     }
     report("single pass", &single);
-    for rule in [FusionRule::AllButOne, FusionRule::All] {
+    for rule in [FusionRule::Robust, FusionRule::All] {
         let mut judged = Vec::new();
         let mut times = Vec::new();
         let mut kinds = std::collections::BTreeMap::<String, usize>::new();
@@ -259,7 +260,7 @@ fn main() {
                 )
                 .expect("read");
             let wp: Vec<_> = stored.into_iter().map(|s| s.wheel).collect();
-            let joint = fuse(&wp, rule, urg, insp);
+            let joint = fuse(&wp, rule, phi, urg, insp);
             times.push(t.elapsed().as_secs_f64() * 1e3);
             let name = serde_json::to_value(&joint.agreement).unwrap()["kind"]
                 .as_str()

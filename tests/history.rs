@@ -205,7 +205,7 @@ fn identify_stores_each_pass_once_and_history_fuses_the_wheels_passes() {
         "{joint} vs {narrowest}"
     );
     assert_eq!(joint["rule"], "all");
-    // The default rule keeps what two of the three allow: the truth too.
+    // The default rule (`robust`) keeps what two of the three allow: the truth too.
     let robust = wheelflat()
         .args(["history", "--wheel", "B7/trailing", "--db"])
         .arg(&db)
@@ -219,7 +219,7 @@ fn identify_stores_each_pass_once_and_history_fuses_the_wheels_passes() {
     )
     .unwrap();
     let joint = &json["joint"];
-    assert_eq!(joint["rule"], "all-but-one");
+    assert_eq!(joint["rule"], "robust");
     assert!(within_of(joint, "length_mm", TRUTH[0]) && within_of(joint, "depth_mm", TRUTH[1]));
 
     // The leading wheel: the flat is on the trailing one (the narrow population's wheel).

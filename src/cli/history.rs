@@ -26,9 +26,9 @@ pub(super) struct HistoryArgs {
     /// re-profiled).
     #[arg(long, value_parser = parse_hours)]
     pub hours: Option<f64>,
-    /// How passes are combined: `all-but-one` (what every pass but at most one allows, from
-    /// three passes) or `all`.
-    #[arg(long, value_enum, default_value_t = Rule::AllButOne)]
+    /// How passes are combined: `robust` (what every pass allows but the few that may have
+    /// lost the truth: one of 3–7 passes at φ = 0.95, two of 8–16) or `all`.
+    #[arg(long, value_enum, default_value_t = Rule::Robust)]
     pub rule: Rule,
     /// The class limits from this calibration's `[maintenance]` (default: 25 / 40 mm on L0).
     #[arg(long)]
@@ -41,8 +41,8 @@ pub(super) struct HistoryArgs {
 /// The fusion rule on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub(super) enum Rule {
-    /// What every pass but at most one allows (from three passes).
-    AllButOne,
+    /// What every pass allows but the few that may have lost the truth (from three passes).
+    Robust,
     /// What every pass allows.
     All,
 }
@@ -135,11 +135,11 @@ pub(super) fn run(a: &HistoryArgs) -> Result<()> {
         );
     }
     let rule = match a.rule {
-        Rule::AllButOne => FusionRule::AllButOne,
+        Rule::Robust => FusionRule::Robust,
         Rule::All => FusionRule::All,
     };
     let wheels: Vec<_> = passes.iter().map(|p| p.wheel.clone()).collect();
-    let joint = fuse(&wheels, rule, urgent, inspect);
+    let joint = fuse(&wheels, rule, cal.identification.phi, urgent, inspect);
     let report = HistoryReport::new(wheel, &passes, joint, [inspect, urgent]);
     print!("{}", report.text());
     if let Some(out) = &a.out {

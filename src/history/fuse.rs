@@ -9,9 +9,11 @@
 //! its detection limit; a pass that puts the flat on the other wheel allows no flat here. A
 //! refuted or unseen pass says nothing and is named, not counted.
 //!
-//! The rule ([`FusionRule`]): `all-but-one` (the default) keeps what every pass but at most
-//! one allows once there are three or more passes, so one pass that lost the truth (about one
-//! in twenty) cannot take it out of the joint answer; `all` keeps what every pass allows. When
+//! The rule ([`FusionRule`]): `robust` (the default) keeps what every pass allows but at most
+//! k, from three passes on — k the passes that may have lost the truth, each with probability
+//! 1 − φ, with probability at least φ together ([`allowed_misses`]: one for 3–7 passes at
+//! φ = 0.95, two for 8–16) — so a pass that lost the truth cannot take it out of the joint
+//! answer; `all` keeps what every pass allows. When
 //! the passes have nothing in common the answer says why instead of coming out empty: the
 //! newest passes that agree, against older ones wholly below (the flat **grew**) or above
 //! (**smaller**: re-profiled, or a pass that lost the flat), else the one pass out, else that
@@ -32,9 +34,10 @@ pub const BINS: [usize; 3] = [64, 90, 16];
 pub enum FusionRule {
     /// What every pass allows.
     All,
-    /// With three passes or more, what every pass but at most one allows.
+    /// With three passes or more, what every pass allows but the few that may have lost the
+    /// truth ([`allowed_misses`]).
     #[default]
-    AllButOne,
+    Robust,
 }
 
 impl FusionRule {
@@ -42,7 +45,7 @@ impl FusionRule {
     pub fn as_str(self) -> &'static str {
         match self {
             FusionRule::All => "all",
-            FusionRule::AllButOne => "all-but-one",
+            FusionRule::Robust => "robust",
         }
     }
 }
@@ -118,10 +121,33 @@ impl Joint {
     }
 }
 
-/// Fuses one wheel's passes (oldest first) under `rule`, with the L0 class limits (mm).
+/// How many of `n` passes may have lost the truth, each with probability 1 − φ, with
+/// probability at least φ together: the smallest k with P(more than k lost) ≤ 1 − φ
+/// (binomial); none for one or two passes (then every pass must allow the answer).
+pub fn allowed_misses(n: usize, phi: f64) -> usize {
+    if n < 3 {
+        return 0;
+    }
+    let p = (1.0 - phi).clamp(0.0, 1.0);
+    let mut term = (1.0 - p).powi(n as i32); // P(0 lost)
+    let mut cumulative = term;
+    for k in 0..n {
+        if 1.0 - cumulative <= 1.0 - phi + 1e-12 {
+            return k;
+        }
+        // P(k + 1 lost) from P(k lost).
+        term *= (n - k) as f64 / (k + 1) as f64 * p / (1.0 - p).max(f64::MIN_POSITIVE);
+        cumulative += term;
+    }
+    n - 1
+}
+
+/// Fuses one wheel's passes (oldest first) under `rule` and the passes' identification
+/// probability `phi`, with the L0 class limits (mm).
 pub fn fuse(
     passes: &[WheelPass],
     rule: FusionRule,
+    phi: f64,
     urgent_l0_mm: f64,
     inspect_l0_mm: f64,
 ) -> Joint {
@@ -166,7 +192,7 @@ pub fn fuse(
     let robust = |idx: &[usize]| -> Hyp {
         let hs: Vec<&Hyp> = idx.iter().map(|&i| &hyps[i]).collect();
         match (rule, hs.len()) {
-            (FusionRule::AllButOne, m) if m >= 3 => at_least(&hs, m - 1, &grid),
+            (FusionRule::Robust, m) if m >= 3 => at_least(&hs, m - allowed_misses(m, phi), &grid),
             _ => all_of(hs.into_iter(), &grid),
         }
     };
@@ -431,7 +457,7 @@ mod tests {
             flat([50.0, 90.0], [0.45, 0.65]),
             flat([30.0, 70.0], [0.35, 0.55]),
         ];
-        let j = fuse(&passes, FusionRule::All, 40.0, 25.0);
+        let j = fuse(&passes, FusionRule::All, 0.95, 40.0, 25.0);
         assert_eq!(j.agreement, Agreement::Consistent);
         assert!(j.allows(Some(TRUTH)));
         let d = j.depth_mm.unwrap();
@@ -450,10 +476,10 @@ mod tests {
             flat([150.0, 190.0], [0.40, 0.60]), // lost it: another length
             flat([30.0, 70.0], [0.35, 0.55]),
         ];
-        let robust = fuse(&passes, FusionRule::AllButOne, 40.0, 25.0);
+        let robust = fuse(&passes, FusionRule::Robust, 0.95, 40.0, 25.0);
         assert!(robust.allows(Some(TRUTH)), "{}", robust.words);
         // Under `all` the odd pass is named and the others' answer kept.
-        let strict = fuse(&passes, FusionRule::All, 40.0, 25.0);
+        let strict = fuse(&passes, FusionRule::All, 0.95, 40.0, 25.0);
         assert_eq!(
             strict.agreement,
             Agreement::OddPass { pass: 1 },
@@ -474,7 +500,7 @@ mod tests {
             flat([60.0, 90.0], [0.60, 0.80]), // L0 about 47–54 mm
             flat([55.0, 95.0], [0.62, 0.85]),
         ];
-        let j = fuse(&passes, FusionRule::AllButOne, 40.0, 25.0);
+        let j = fuse(&passes, FusionRule::Robust, 0.95, 40.0, 25.0);
         assert_eq!(
             j.agreement,
             Agreement::Changed {
@@ -504,7 +530,8 @@ mod tests {
         };
         let j = fuse(
             &[good(), refuted, good(), good()],
-            FusionRule::AllButOne,
+            FusionRule::Robust,
+            0.95,
             40.0,
             25.0,
         );
@@ -521,6 +548,7 @@ mod tests {
                 ..good()
             }],
             FusionRule::All,
+            0.95,
             40.0,
             25.0,
         );
@@ -528,11 +556,22 @@ mod tests {
     }
 
     #[test]
+    fn the_passes_that_may_have_lost_the_truth_follow_the_binomial() {
+        // φ = 0.95: one of 3–7 passes, two of 8–16, three from 17; none of one or two.
+        let k: Vec<usize> = (1..=18).map(|n| allowed_misses(n, 0.95)).collect();
+        assert_eq!(
+            k,
+            vec![0, 0, 1, 1, 1, 1, 1, 2, 2, 2, 2, 2, 2, 2, 2, 2, 3, 3]
+        );
+        assert_eq!(allowed_misses(5, 1.0), 0);
+    }
+
+    #[test]
     fn a_clean_pass_allows_flats_below_its_detection_limit() {
         let mut clean = good();
         clean.limit_l0_mm = Some(30.0);
         let passes = [clean, flat([20.0, 40.0], [0.12, 0.16])];
-        let j = fuse(&passes, FusionRule::All, 40.0, 25.0);
+        let j = fuse(&passes, FusionRule::All, 0.95, 40.0, 25.0);
         assert_eq!(j.agreement, Agreement::Consistent, "{}", j.words);
         assert!(j.allows(Some([30.0, 0.14, 0.05])));
         // Clean passes alone allow those flats but act as a good wheel.
@@ -540,7 +579,8 @@ mod tests {
         clean.limit_l0_mm = Some(30.0);
         let j = fuse(
             &[clean.clone(), clean.clone(), clean],
-            FusionRule::AllButOne,
+            FusionRule::Robust,
+            0.95,
             40.0,
             25.0,
         );
