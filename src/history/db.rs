@@ -189,7 +189,6 @@ impl Db {
                 path: path.to_path_buf(),
             });
         }
-        let fresh = meta.is_none_or(|m| m.len() == 0);
         let flags = OpenFlags::SQLITE_OPEN_READ_WRITE
             | OpenFlags::SQLITE_OPEN_NO_MUTEX
             | if create {
@@ -219,7 +218,6 @@ impl Db {
         if id == 0 && version == 0 && tables == 0 {
             // An empty SQLite file (or none): made ours. Two processes may both find it empty;
             // the second finds the schema inside its own transaction and leaves it.
-            let _ = fresh;
             conn.pragma_update(None, "journal_mode", "WAL")
                 .map_err(sql)?;
             let mut conn = conn;

@@ -7,35 +7,8 @@ impl Calibration {
     pub fn check(mut self) -> Result<CheckedCalibration, CalibrationError> {
         // `[maintenance]` states the class limits; the rule reads them from the settings.
         if let Some(m) = &self.maintenance {
-            positive("maintenance.inspect_l0_mm", m.inspect_l0_mm)?;
-            positive("maintenance.urgent_l0_mm", m.urgent_l0_mm)?;
-            if m.inspect_l0_mm >= m.urgent_l0_mm {
-                return Err(invalid(
-                    "maintenance.inspect_l0_mm",
-                    m.inspect_l0_mm,
-                    &format!(
-                        "must lie below maintenance.urgent_l0_mm ({}): the inspection class lies below the urgent one",
-                        m.urgent_l0_mm
-                    ),
-                ));
-            }
-            positive("maintenance.inspect_dynamic_ratio", m.inspect_dynamic_ratio)?;
-            if m.inspect_dynamic_ratio >= m.urgent_dynamic_ratio {
-                return Err(invalid(
-                    "maintenance.inspect_dynamic_ratio",
-                    m.inspect_dynamic_ratio,
-                    &format!(
-                        "must lie below maintenance.urgent_dynamic_ratio ({})",
-                        m.urgent_dynamic_ratio
-                    ),
-                ));
-            }
-            let id = &mut self.identification;
-            id.maintenance_rule = m.rule;
-            id.inspect_l0_mm = m.inspect_l0_mm;
-            id.urgent_l0_mm = m.urgent_l0_mm;
-            id.inspect_dynamic_ratio = m.inspect_dynamic_ratio;
-            id.urgent_dynamic_ratio = m.urgent_dynamic_ratio;
+            m.check()?;
+            m.apply(&mut self.identification);
         }
         let t = &self.track;
         // Physical ranges: wide (an order of magnitude or more around real track), so that
@@ -544,7 +517,7 @@ fn within(key: &str, v: f64, lo: f64, hi: f64) -> Result<(), CalibrationError> {
     }
 }
 
-fn positive(key: &str, v: f64) -> Result<(), CalibrationError> {
+pub(super) fn positive(key: &str, v: f64) -> Result<(), CalibrationError> {
     finite(key, v)?;
     if v > 0.0 {
         Ok(())

@@ -11,8 +11,11 @@ mod check;
 mod defaults;
 mod fold;
 
+mod maintenance;
+
 pub use super::effect::Effect;
 pub use super::wheel::WheelPosition;
+pub use maintenance::MaintenanceParams;
 
 use serde::{Deserialize, Serialize};
 use std::ops::Deref;
@@ -382,37 +385,6 @@ pub struct Calibration {
     /// given they replace the same keys of `[identification]` (not part of a bank's identity).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub maintenance: Option<MaintenanceParams>,
-}
-
-/// The severity classes' limits (`[maintenance]`): on the fresh-flat length L0 by default
-/// (25 mm inspect, 40 mm urgent), or on the dynamic ratio with `rule = "impact"`. A limit
-/// itself belongs to the graver class. Keys left out take the defaults.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct MaintenanceParams {
-    /// What the classes are read from: `"l0"` or `"impact"`.
-    pub rule: MaintenanceRule,
-    /// From this upper L0 bound (mm) the wheel is inspected.
-    pub inspect_l0_mm: f64,
-    /// From this upper L0 bound (mm) the wheelset is removed within 24 hours.
-    pub urgent_l0_mm: f64,
-    /// Impact rule: the dynamic ratio from which the wheel is inspected.
-    pub inspect_dynamic_ratio: f64,
-    /// Impact rule: the dynamic ratio from which the wheelset is removed within 24 hours.
-    pub urgent_dynamic_ratio: f64,
-}
-
-impl Default for MaintenanceParams {
-    fn default() -> MaintenanceParams {
-        let id = IdentificationParams::default();
-        MaintenanceParams {
-            rule: id.maintenance_rule,
-            inspect_l0_mm: id.inspect_l0_mm,
-            urgent_l0_mm: id.urgent_l0_mm,
-            inspect_dynamic_ratio: id.inspect_dynamic_ratio,
-            urgent_dynamic_ratio: id.urgent_dynamic_ratio,
-        }
-    }
 }
 
 /// A calibration that passed [`Calibration::check`]; the physics only takes this type.
