@@ -124,19 +124,34 @@ fn severity_text(w: &crate::train::WheelRow) -> String {
     }
 }
 
+/// A wheel's bogie for people: its place, and its id from the consist when given (`5 4711-5`).
+fn bogie_text(w: &crate::train::WheelRow) -> String {
+    match w.wheel_id.as_deref().and_then(|id| id.rsplit_once('/')) {
+        Some((bogie, _)) => format!("{} {bogie}", w.bogie),
+        None => w.bogie.to_string(),
+    }
+}
+
 /// The table for people.
 pub fn table_text(r: &TrainResult) -> String {
+    let width = r
+        .wheels
+        .iter()
+        .map(|w| bogie_text(w).chars().count())
+        .max()
+        .unwrap_or(0)
+        .max(6);
     let mut s = format!(
-        "{:<4} {:<6} {:<9} {:<8} {:<20} {:>7}  {}\n",
+        "{:<4} {:<width$} {:<9} {:<8} {:<20} {:>7}  {}\n",
         "car", "bogie", "wheel", "flat", "L0 (mm)", "CMS", "severity"
     );
     // (A refined wheel's L0 column reads `bank-only → refined`.)
     for w in &r.wheels {
         let l0 = l0_text(w);
         s += &format!(
-            "{:<4} {:<6} {:<9} {:<8} {:<20} {:>7}  {}\n",
+            "{:<4} {:<width$} {:<9} {:<8} {:<20} {:>7}  {}\n",
             w.car,
-            w.bogie,
+            bogie_text(w),
             w.wheel.name(),
             w.flat,
             l0,
@@ -166,7 +181,7 @@ pub fn table_html(r: &TrainResult) -> String {
             "<tr class=\"{}\"><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td><td>{}</td><td>{l0}</td><td class=\"num\">{}</td><td>{}</td></tr>\n",
             esc(w.severity.as_str()),
             w.car,
-            w.bogie,
+            esc(&bogie_text(w)),
             w.wheel.name(),
             esc(&w.flat),
             w.cms_count,
