@@ -231,6 +231,28 @@ fn identify_stores_each_pass_once_and_history_fuses_the_wheels_passes() {
     let lead = String::from_utf8_lossy(&lead.stdout);
     assert!(lead.contains("none"), "{lead}");
 
+    // A stored row altered behind wheelflat's back is refused, naming the pass, not fused.
+    let broken = dir.path().join("broken.sqlite");
+    std::fs::copy(&db, &broken).unwrap();
+    let c = rusqlite::Connection::open(&broken).unwrap();
+    c.execute(
+        "UPDATE wheel_passes SET boxes = x'00010203' WHERE pass_id = 2 AND wheel = 'trailing'",
+        [],
+    )
+    .unwrap();
+    drop(c);
+    let out = wheelflat()
+        .args(["history", "--wheel", "B7/trailing", "--db"])
+        .arg(&broken)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("broken.sqlite: pass 2: 4 bytes of cells are not whole, ordered boxes"),
+        "{err}"
+    );
+
     // An unknown wheel is named.
     let out = wheelflat()
         .args(["history", "--wheel", "B8/leading", "--db"])
