@@ -81,8 +81,9 @@ pub(super) fn open_db(path: &Path) -> Result<Db> {
 pub(super) fn store(db: &mut Db, rec: &PassRecord) -> Result<String> {
     let new = db
         .insert(rec)
-        .with_context(|| format!("cannot store the pass of {}", rec.measurement))?;
+        .with_context(|| format!("cannot store the pass of {}", rec.meta.measurement))?;
     let who = rec
+        .meta
         .bogie_id
         .as_deref()
         .map_or("no bogie id: not in any wheel's history".to_string(), |b| {

@@ -295,28 +295,31 @@ impl Db {
             .transaction_with_behavior(TransactionBehavior::Immediate)
             .map_err(sql)?;
         let known: Option<i64> = tx
-            .query_row("SELECT id FROM passes WHERE key = ?1", [&rec.key], |r| {
-                r.get(0)
-            })
+            .query_row(
+                "SELECT id FROM passes WHERE key = ?1",
+                [&rec.meta.key],
+                |r| r.get(0),
+            )
             .optional()
             .map_err(sql)?;
         if known.is_some() {
             return Ok(false);
         }
-        let time = rfc3339(rec.time_s);
+        let m = &rec.meta;
+        let time = rfc3339(m.time_s);
         tx.execute(
             "INSERT INTO passes (key, time, time_s, measurement, bank_id, speed_km_per_h, bank_speed_km_per_h, load_kn, bogie_id, summary) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)",
             params![
-                rec.key,
+                m.key,
                 time,
-                rec.time_s,
-                rec.measurement,
-                rec.bank_id,
-                rec.speed_km_per_h,
-                rec.bank_speed_km_per_h,
-                rec.load_kn,
-                rec.bogie_id,
-                rec.summary
+                m.time_s,
+                m.measurement,
+                m.bank_id,
+                m.speed_km_per_h,
+                m.bank_speed_km_per_h,
+                m.load_kn,
+                m.bogie_id,
+                m.summary
             ],
         )
         .map_err(sql)?;
@@ -328,7 +331,7 @@ impl Db {
                 params![
                     pass_id,
                     w.wheel.name(),
-                    rec.bogie_id.as_ref().map(|b| format!("{b}/{}", w.wheel.name())),
+                    m.bogie_id.as_ref().map(|b| format!("{b}/{}", w.wheel.name())),
                     w.claim.as_str(),
                     w.l0_mm.map(|r| r[0]),
                     w.l0_mm.map(|r| r[1]),
@@ -359,12 +362,14 @@ impl Db {
         let mut st = self
             .conn
             .prepare(
-                "SELECT w.wheel_id, count(*), max(p.time_s),
-                   (SELECT p2.time || '|' || coalesce(w2.severity_lowest, '') || '|' || coalesce(w2.severity_highest, '')
-                      FROM wheel_passes w2 JOIN passes p2 ON p2.id = w2.pass_id
-                      WHERE w2.wheel_id = w.wheel_id ORDER BY p2.time_s DESC, p2.id DESC LIMIT 1)
-                 FROM wheel_passes w JOIN passes p ON p.id = w.pass_id
-                 WHERE w.wheel_id IS NOT NULL GROUP BY w.wheel_id ORDER BY w.wheel_id",
+                "SELECT wheel_id, n, time, severity_lowest, severity_highest FROM (
+                   SELECT w.wheel_id, p.time, w.severity_lowest, w.severity_highest,
+                          count(*) OVER (PARTITION BY w.wheel_id) AS n,
+                          row_number() OVER (PARTITION BY w.wheel_id
+                                             ORDER BY p.time_s DESC, p.id DESC) AS newest
+                   FROM wheel_passes w JOIN passes p ON p.id = w.pass_id
+                   WHERE w.wheel_id IS NOT NULL)
+                 WHERE newest = 1 ORDER BY wheel_id",
             )
             .map_err(|e| self.sql(e))?;
         let rows = st
@@ -372,21 +377,21 @@ impl Db {
                 Ok((
                     r.get::<_, String>(0)?,
                     r.get::<_, i64>(1)?,
-                    r.get::<_, String>(3)?,
+                    r.get::<_, String>(2)?,
+                    r.get::<_, Option<String>>(3)?,
+                    r.get::<_, Option<String>>(4)?,
                 ))
             })
             .map_err(|e| self.sql(e))?;
         let mut out = Vec::new();
         for row in rows {
-            let (wheel_id, n, last) = row.map_err(|e| self.sql(e))?;
-            let mut parts = last.splitn(3, '|');
-            let time = parts.next().unwrap_or_default().to_string();
-            let lo = parts.next().and_then(severity_of);
-            let hi = parts.next().and_then(severity_of);
+            let (wheel_id, n, last_time, lo, hi) = row.map_err(|e| self.sql(e))?;
+            let lo = lo.as_deref().and_then(severity_of);
+            let hi = hi.as_deref().and_then(severity_of);
             out.push(WheelSummary {
                 wheel_id,
                 passes: n as usize,
-                last_time: time,
+                last_time,
                 last_severity: lo
                     .zip(hi)
                     .map(|(lowest, highest)| SeverityRange { lowest, highest }),

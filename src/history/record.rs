@@ -121,25 +121,8 @@ pub struct WheelPass {
 /// One pass of one bogie, as the results database stores it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PassRecord {
-    /// What makes the pass itself: the SHA-256 of its record (and the bogie's place in a
-    /// train). A pass stored twice (a restart between storing and moving the file) is one.
-    pub key: String,
-    /// When the pass was identified (Unix seconds, UTC).
-    pub time_s: f64,
-    /// The measurement file.
-    pub measurement: String,
-    /// The bank (member) it was compared with.
-    pub bank_id: String,
-    /// The pass's speed (km/h), when stated.
-    pub speed_km_per_h: Option<f64>,
-    /// The bank's speed (km/h).
-    pub bank_speed_km_per_h: f64,
-    /// The wheel load read from the record (kN).
-    pub load_kn: Option<f64>,
-    /// The bogie measured, when named.
-    pub bogie_id: Option<String>,
-    /// The pass's verdict in words.
-    pub summary: String,
+    /// What the pass is besides its wheels: key, time, files, bank, speed, load, bogie.
+    pub meta: PassMeta,
     /// Leading, then trailing wheel.
     pub wheels: [WheelPass; 2],
 }
@@ -185,41 +168,31 @@ impl PassRecord {
         };
         let wheels = [WheelPosition::Leading, WheelPosition::Trailing]
             .map(|w| wheel_pass(detection, sized, identifier, w, space));
-        PassRecord {
-            key: meta.key,
-            time_s: meta.time_s,
-            measurement: meta.measurement,
-            bank_id: meta.bank_id,
-            speed_km_per_h: meta.speed_km_per_h,
-            bank_speed_km_per_h: meta.bank_speed_km_per_h,
-            load_kn: meta.load_kn,
-            bogie_id: meta.bogie_id,
-            summary: meta.summary,
-            wheels,
-        }
+        PassRecord { meta, wheels }
     }
 }
 
 /// What a pass record says besides its wheels.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PassMeta {
-    /// [`PassRecord::key`].
+    /// What makes the pass itself: the SHA-256 of its record (and the bogie's place in a
+    /// train). A pass stored twice (a restart between storing and moving the file) is one.
     pub key: String,
-    /// [`PassRecord::time_s`].
+    /// When the pass was identified (Unix seconds, UTC).
     pub time_s: f64,
-    /// [`PassRecord::measurement`].
+    /// The measurement file.
     pub measurement: String,
-    /// [`PassRecord::bank_id`].
+    /// The bank (member) it was compared with.
     pub bank_id: String,
-    /// [`PassRecord::speed_km_per_h`].
+    /// The pass's speed (km/h), when stated.
     pub speed_km_per_h: Option<f64>,
-    /// [`PassRecord::bank_speed_km_per_h`].
+    /// The bank's speed (km/h).
     pub bank_speed_km_per_h: f64,
-    /// [`PassRecord::load_kn`].
+    /// The wheel load read from the record (kN).
     pub load_kn: Option<f64>,
-    /// [`PassRecord::bogie_id`].
+    /// The bogie measured, when named.
     pub bogie_id: Option<String>,
-    /// [`PassRecord::summary`].
+    /// The pass's verdict in words.
     pub summary: String,
 }
 
