@@ -301,13 +301,37 @@ fn explain(
             }
         }
     }
-    let outs: Vec<usize> = (0..n)
-        .filter(|&i| !all_of((0..n).filter(|&j| j != i).map(|j| &hyps[j]), grid).is_empty())
+    // What all passes but i share, for every i, from running ANDs from each end (n passes,
+    // not n²: a window may hold a thousand).
+    let mut before: Vec<Option<Hyp>> = vec![None];
+    for h in hyps {
+        let next = before
+            .last()
+            .and_then(Option::as_ref)
+            .map_or_else(|| h.clone(), |b| b.and(h));
+        before.push(Some(next));
+    }
+    let mut after: Vec<Option<Hyp>> = vec![None];
+    for h in hyps.iter().rev() {
+        let next = after
+            .last()
+            .and_then(Option::as_ref)
+            .map_or_else(|| h.clone(), |a| a.and(h));
+        after.push(Some(next));
+    }
+    after.reverse(); // after[i]: the passes from i on
+    let but = |i: usize| match (&before[i], &after[i + 1]) {
+        (Some(a), Some(b)) => a.and(b),
+        (Some(x), None) | (None, Some(x)) => x.clone(),
+        (None, None) => Hyp::empty(grid),
+    };
+    let outs: Vec<(usize, Hyp)> = (0..n)
+        .map(|i| (i, but(i)))
+        .filter(|(_, h)| !h.is_empty())
         .collect();
-    if let [i] = outs.as_slice() {
+    if let [(i, set)] = outs.as_slice() {
         let rest: Vec<usize> = (0..n).filter(|j| j != i).collect();
-        let set = all_of(rest.iter().map(|&j| &hyps[j]), grid);
-        return (Agreement::OddPass { pass: *i }, rest, set);
+        return (Agreement::OddPass { pass: *i }, rest, set.clone());
     }
     let every: Vec<&Hyp> = hyps.iter().collect();
     (
