@@ -14,6 +14,9 @@
 //! beside it the single-pass figures on the same passes. `GOOD=N`: N good bogies too (both
 //! wheels fused; how many joint answers are `none`). `REFINE=1`: every pass refined
 //! (`identify --refine`) and its refined cells stored and fused.
+#[path = "common/study.rs"]
+mod study;
+
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -24,15 +27,6 @@ use wheelflat::identify::refine::{bank_simulator, refine as refine_answer, Refin
 use wheelflat::identify::synth::{synthesize, synthesize_pass, FieldNoise};
 use wheelflat::identify::{Extras, Measurement, Severity};
 use wheelflat::model::{CheckedCalibration, Flat, WheelPosition};
-
-fn uniform(state: &mut u64) -> f64 {
-    // SplitMix64
-    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-}
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -74,8 +68,8 @@ fn main() {
         .flat_map(|w| (0..passes).map(move |p| (w, p)))
         .map(|(w, p)| {
             let t = &truths[w];
-            let x = xp[0] + (xp[1] - xp[0]) * uniform(&mut state);
-            let s = v[0] + (v[1] - v[0]) * uniform(&mut state);
+            let x = xp[0] + (xp[1] - xp[0]) * study::splitmix_uniform(&mut state);
+            let s = v[0] + (v[1] - v[0]) * study::splitmix_uniform(&mut state);
             let flat = Flat::from_mm(
                 t.length_m() * 1e3,
                 t.depth_m() * 1e3,
@@ -114,7 +108,7 @@ fn main() {
     let good_cases: Vec<(usize, usize, f64)> = (0..good)
         .flat_map(|g| (0..passes).map(move |p| (g, p)))
         .map(|(g, p)| {
-            let s = v[0] + (v[1] - v[0]) * uniform(&mut state);
+            let s = v[0] + (v[1] - v[0]) * study::splitmix_uniform(&mut state);
             (g, p, (s * 10.0).round() / 10.0)
         })
         .collect();
@@ -207,20 +201,23 @@ fn main() {
         db.pass_count().unwrap(),
         db_path.display()
     );
+    // A wheel's passes as `history` reads them.
+    let read_wheel = |id: &str| {
+        db.wheel_passes(
+            id,
+            Window {
+                last: passes,
+                hours: None,
+            },
+        )
+        .expect("read")
+    };
     if good > 0 {
         for rule in [FusionRule::Robust, FusionRule::All] {
             let (mut quiet, mut flagged) = (0, Vec::new());
             for g in 0..good {
                 for wheel in ["leading", "trailing"] {
-                    let stored = db
-                        .wheel_passes(
-                            &format!("G{g}/{wheel}"),
-                            Window {
-                                last: passes,
-                                hours: None,
-                            },
-                        )
-                        .expect("read");
+                    let stored = read_wheel(&format!("G{g}/{wheel}"));
                     let wp: Vec<_> = stored.into_iter().map(|s| s.wheel).collect();
                     let j = fuse(&wp, rule, phi, urg, insp);
                     let none = j.severity.is_some_and(|s| s.highest == Severity::None);
@@ -250,15 +247,7 @@ fn main() {
         for (w, truth) in truths.iter().enumerate() {
             let wheel = truth.wheel().unwrap_or(WheelPosition::Trailing);
             let t = Instant::now();
-            let stored = db
-                .wheel_passes(
-                    &format!("W{w}/{}", wheel.name()),
-                    Window {
-                        last: passes,
-                        hours: None,
-                    },
-                )
-                .expect("read");
+            let stored = read_wheel(&format!("W{w}/{}", wheel.name()));
             let wp: Vec<_> = stored.into_iter().map(|s| s.wheel).collect();
             let joint = fuse(&wp, rule, phi, urg, insp);
             times.push(t.elapsed().as_secs_f64() * 1e3);
@@ -292,15 +281,7 @@ fn main() {
     let mut judged = Vec::new();
     for (w, truth) in truths.iter().enumerate() {
         let wheel = truth.wheel().unwrap_or(WheelPosition::Trailing);
-        let stored = db
-            .wheel_passes(
-                &format!("W{w}/{}", wheel.name()),
-                Window {
-                    last: passes,
-                    hours: None,
-                },
-            )
-            .expect("read");
+        let stored = read_wheel(&format!("W{w}/{}", wheel.name()));
         let mut r = [[f64::NEG_INFINITY, f64::INFINITY]; 2];
         let mut highest = Severity::None;
         for s in &stored {

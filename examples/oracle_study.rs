@@ -35,15 +35,6 @@ struct Pt {
     high: f64,
 }
 
-/// splitmix64 → uniform in [0, 1).
-fn uniform(state: &mut u64) -> f64 {
-    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-}
-
 fn main() {
     let study = Study::from_args("[SAMPLES] [eip|all]");
     let (cases, seed) = (study.cases, study.seed);
@@ -117,7 +108,7 @@ fn main() {
         let clamp = |v: f64, r: [f64; 2]| v.clamp(r[0], r[1]);
         let mut flats: Vec<Flat> = vec![flat.on_wheel(cal.vehicle.flat_wheel)];
         while flats.len() < samples {
-            let mut u = || uniform(&mut state);
+            let mut u = || study::splitmix_uniform(&mut state);
             let family = flats.len() % 3;
             let (l, d, x) = match family {
                 0 => {

@@ -35,6 +35,23 @@ fn stdout_of(args: &[&str], db: &Path) -> String {
     String::from_utf8_lossy(&out.stdout).to_string()
 }
 
+/// `identify --db`: the pass of `measured` against `bank`, stored in `db`; its output.
+fn identify_stored(bank: &Path, measured: &Path, out: &Path, db: &Path) -> String {
+    let [bank, measured, out] = [bank, measured, out].map(|p| p.to_str().unwrap());
+    stdout_of(
+        &[
+            "identify",
+            "--bank",
+            bank,
+            "--measured",
+            measured,
+            "--out",
+            out,
+        ],
+        db,
+    )
+}
+
 #[test]
 fn the_database_refuses_a_file_that_is_not_its_schema_naming_it() {
     let dir = tempfile::tempdir().unwrap();
@@ -113,18 +130,7 @@ fn identify_stores_each_pass_once_and_history_fuses_the_wheels_passes() {
     for (k, x) in places.iter().enumerate() {
         let f = dir.path().join(format!("pass-{k}.csv"));
         std::fs::write(&f, pass(*x, 100 + k as u64, "B7")).unwrap();
-        let out = stdout_of(
-            &[
-                "identify",
-                "--bank",
-                bank_dir.to_str().unwrap(),
-                "--measured",
-                f.to_str().unwrap(),
-                "--out",
-                dir.path().join(format!("out-{k}")).to_str().unwrap(),
-            ],
-            &db,
-        );
+        let out = identify_stored(bank_dir, &f, &dir.path().join(format!("out-{k}")), &db);
         assert!(
             out.contains("stored in") && out.contains("(bogie B7)"),
             "{out}"
@@ -133,18 +139,7 @@ fn identify_stores_each_pass_once_and_history_fuses_the_wheels_passes() {
         files.push(f);
     }
     // The same pass again is the same pass.
-    let again = stdout_of(
-        &[
-            "identify",
-            "--bank",
-            bank_dir.to_str().unwrap(),
-            "--measured",
-            files[0].to_str().unwrap(),
-            "--out",
-            dir.path().join("again").to_str().unwrap(),
-        ],
-        &db,
-    );
+    let again = identify_stored(bank_dir, &files[0], &dir.path().join("again"), &db);
     assert!(again.contains("already in"), "{again}");
     assert_eq!(Db::open_existing(&db).unwrap().pass_count().unwrap(), 3);
 
@@ -286,18 +281,7 @@ fn a_flat_that_grows_between_passes_is_reported_as_changed_not_as_an_empty_answe
         let csv = synthesize(cal, &flat, 40 + k as u64, true).unwrap().csv;
         let f = dir.path().join(format!("g{k}.csv"));
         std::fs::write(&f, format!("# bogie_id = G1\n{csv}")).unwrap();
-        stdout_of(
-            &[
-                "identify",
-                "--bank",
-                bank_dir.to_str().unwrap(),
-                "--measured",
-                f.to_str().unwrap(),
-                "--out",
-                dir.path().join(format!("o{k}")).to_str().unwrap(),
-            ],
-            &db,
-        );
+        identify_stored(bank_dir, &f, &dir.path().join(format!("o{k}")), &db);
     }
     let out = dir.path().join("h");
     let text = wheelflat()
