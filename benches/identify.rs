@@ -101,7 +101,10 @@ fn bench_identify(c: &mut Criterion) {
             let data = id.bank().read_columns(&cols).unwrap();
             let refs: Vec<&[f32]> = data.iter().map(Vec::as_slice).collect();
             (
-                wheelflat::identify::envelope::feature(&refs, x.kind == "max"),
+                wheelflat::identify::envelope::feature(
+                    &refs,
+                    x.kind == wheelflat::identify::envelope::Extreme::Max,
+                ),
                 wheelflat::identify::falsify::steps(&refs),
             )
         })

@@ -3,4 +3,4 @@
 # Extra arguments: quadruples "elements_per_bay coarse_steps_per_sample fine_steps_per_coarse fine_after_ms".
 set -euo pipefail
 cd "$(dirname "$0")/.."
-cargo run --release --example convergence -- "$@"
+cargo run --release -p wheelflat-studies --bin convergence -- "$@"

@@ -49,7 +49,7 @@ them); this file is its entry point. Run:
     python3 scripts/reference_identify.py --bank bank --measurement m.csv \
         [--sensors rps1,rps2] [--calibration track.toml] [--out result.json]
 
-(or `python3 -m reference …` from `scripts/`). tests/peer.rs runs it against `wheelflat
+(or `python3 -m reference …` from `scripts/`). tests/it/peer.rs runs it against `wheelflat
 identify` on a small bank when the interpreter has pyarrow and numpy.
 
 `timings_ms` in the JSON has the stages of the Rust `timings_ms` (align and pip … falsify) and

@@ -7,7 +7,7 @@
 #
 #   scripts/soak-watch.sh BANK PASSES_DIR SECONDS WORK [WHEELFLAT]
 #
-# PASSES_DIR: measurement CSVs `w<k>-p<j>.csv` (e.g. examples/history_study's cache); each is
+# PASSES_DIR: measurement CSVs `w<k>-p<j>.csv` (e.g. studies/src/bin/history_study's cache); each is
 # dropped with `# bogie_id = S<k>` and a line that makes it a new pass. WORK gets inbox/,
 # out/, results.sqlite, watch.log, rss.tsv (seconds, RSS kB, backlog) and history.tsv.
 set -euo pipefail

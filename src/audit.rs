@@ -114,9 +114,15 @@ impl<'a> Resimulator<'a> {
     ) -> Result<Resimulator<'a>, AuditError> {
         let cal = match calibration {
             Some(c) => c,
-            None => bank.metadata().calibration.clone().check().map_err(|e| {
-                BankError::Invalid(format!("the bank's stored calibration is invalid: {e}"))
-            })?,
+            None => bank
+                .metadata()
+                .calibration
+                .clone()
+                .check()
+                .map_err(|source| BankError::DerivedCalibration {
+                    context: "the bank's stored calibration is invalid".to_string(),
+                    source,
+                })?,
         };
         // A folded bank is re-simulated as it was simulated: its stored pads and instances.
         let cal = cal.stored();
@@ -418,7 +424,7 @@ pub fn check_against(
                 .collect::<Vec<_>>(),
         )?;
         let refs: Vec<&[f32]> = data.iter().map(Vec::as_slice).collect();
-        let max = x.kind == "max";
+        let max = x.kind == crate::identify::envelope::Extreme::Max;
         let all = envelope::feature(&refs, max);
         let own = envelope::extreme(window.map(|k| stored.forces_kn[axis][k] as f64), max);
         let ser = &id.series[x.series];

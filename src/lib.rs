@@ -9,16 +9,17 @@
 //! 2. Later layers bank the predictions of a whole model population, identify flat sizes
 //!    from measurements, and diagnose model gaps.
 //!
-//! The binary `wheelflat` drives it all; [`cli`] holds its commands and [`report`] its plots.
+//! The binary `wheelflat` (`src/main.rs` and its `cli` modules, not part of this library)
+//! drives it all; [`report`] words and plots the results.
 #![deny(clippy::float_cmp)]
 
 pub mod atomic;
 pub mod audit;
 pub mod bank;
-pub mod cli;
 pub mod diagnose;
 pub mod history;
 pub mod identify;
 pub mod model;
+pub mod pass;
 pub mod report;
 pub mod train;

@@ -37,7 +37,7 @@ pub const FAMILY_FORMAT: &str = "wheelflat-bank-family-1";
 pub const FAMILY_FORMAT_LOADS: &str = "wheelflat-bank-family-2";
 /// How far (relative) a pass's speed may be from the member it is compared with, the pass's
 /// time axis scaled to the member's speed ([`crate::identify::Measurement::at_speed`]):
-/// measured 2026-11-24 (`examples/speed_study`, 100 cases, docs/bank.md "Speed"): coverage
+/// measured 2026-11-24 (`studies/src/bin/speed_study`, 100 cases, docs/bank.md "Speed"): coverage
 /// 0.94–0.95 at ±3 % against 0.95 at the member's own speed, 0.91–0.92 at ±4 %. (Without the
 /// scaling it is 0.25 already at ±1 %.)
 pub const SPEED_TOLERANCE: f64 = 0.03;

@@ -187,6 +187,8 @@ pub fn at_speed_and_load(
     if doc.population.fold_to_one_bay && !doc.bay_is_whole_samples() {
         doc.population.fold_to_one_bay = false;
     }
-    doc.check()
-        .map_err(|e| BankError::Invalid(format!("at {speed_km_per_h} km/h: {e}")))
+    doc.check().map_err(|source| BankError::DerivedCalibration {
+        context: format!("at {speed_km_per_h} km/h"),
+        source,
+    })
 }

@@ -9,7 +9,7 @@ use crate::model::calibration::VehicleParams;
 use serde::{Deserialize, Serialize};
 
 /// How much lighter (relative, in static wheel load) than the member it is compared with a
-/// pass's load may be: measured 2026-11-26 (`examples/load_study`, 200 converged passes a
+/// pass's load may be: measured 2026-11-26 (`studies/src/bin/load_study`, 200 converged passes a
 /// load, docs/bank.md "Every load"): coverage 0.990 at −7.4 %, 0.970 at −14.9 % (0.990 at the
 /// member's own load).
 pub const LOAD_TOLERANCE_LIGHTER: f64 = 0.15;

@@ -113,4 +113,14 @@ pub enum BankError {
     /// The calibration cannot be stored as asked (a folded population it cannot fold).
     #[error(transparent)]
     Calibration(#[from] crate::model::CalibrationError),
+    /// A calibration derived from the bank's (a family member's, the stored one) does not
+    /// check.
+    #[error("{context}")]
+    DerivedCalibration {
+        /// Which calibration.
+        context: String,
+        /// Why.
+        #[source]
+        source: crate::model::CalibrationError,
+    },
 }

@@ -13,7 +13,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 /// Column compression of the sample columns.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Codec {
     /// No compression: reading is a copy.
     None,
@@ -26,7 +26,7 @@ pub enum Codec {
 }
 
 /// Value encoding of the sample columns.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ValueEncoding {
     /// Plain little-endian floats.
     Plain,

@@ -5,13 +5,13 @@
 //! carry plain comments so that clap does not take them for help text.
 
 pub(super) use super::flat_args::FlatArgs;
-use crate::bank::family::SpeedBand;
-use crate::bank::{Codec, ValueEncoding};
-use crate::model::{Effect, Flat, WheelPosition};
-use crate::train::TrainFlat;
+use super::format_args::{CodecArg, EncodingArg};
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
+use wheelflat::bank::family::SpeedBand;
+use wheelflat::model::{Effect, Flat, WheelPosition};
+use wheelflat::train::TrainFlat;
 
 /// Wheel-flat identification from rail-pad forces, with uncertainties.
 #[derive(Debug, Parser)]
@@ -197,11 +197,11 @@ pub(super) struct GenerateArgs {
     #[arg(long, default_value_t = DEFAULT_SHARD_SIZE)]
     pub shard_size: usize,
     /// Compression of the force columns.
-    #[arg(long, value_enum, default_value_t = Codec::None)]
-    pub compression: Codec,
+    #[arg(long, value_enum, default_value_t = CodecArg::None)]
+    pub compression: CodecArg,
     /// Encoding of the force columns.
-    #[arg(long, value_enum, default_value_t = ValueEncoding::Plain)]
-    pub encoding: ValueEncoding,
+    #[arg(long, value_enum, default_value_t = EncodingArg::Plain)]
+    pub encoding: EncodingArg,
     /// A bank family: one member per train speed FROM:TO:STEP km/h (e.g. `40:60:2`), each a
     /// bank of the calibration at that speed, and `family.json` when all are complete. A
     /// family directory remembers its band: without this flag it is regenerated as it is.
@@ -225,8 +225,8 @@ impl GenerateArgs {
             shard: None,
             seed: DEFAULT_SEED,
             shard_size: DEFAULT_SHARD_SIZE,
-            compression: Codec::None,
-            encoding: ValueEncoding::Plain,
+            compression: CodecArg::None,
+            encoding: EncodingArg::Plain,
             speeds: None,
             loads: None,
         }

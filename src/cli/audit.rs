@@ -2,13 +2,13 @@
 
 use super::args::AuditArgs;
 use super::{create_output_folder, open_bank_at, open_identifier, write_file};
-use crate::audit::{check_against, compare, Resimulator};
-use crate::bank::Bank;
-use crate::report::audit::draw_audit;
-use crate::report::tables::{
+use anyhow::Result;
+use wheelflat::audit::{check_against, compare, Resimulator};
+use wheelflat::bank::Bank;
+use wheelflat::report::audit::draw_audit;
+use wheelflat::report::tables::{
     audit_instance_line, audit_json, audit_panels, audit_table, audit_title,
 };
-use anyhow::Result;
 
 /// Re-simulates the instance, prints the verdict (and the table against a measurement), and
 /// writes `audit.json` and `audit.png` when given a folder.
@@ -21,6 +21,7 @@ pub(super) fn run(a: &AuditArgs) -> Result<()> {
             measured,
             a.calibration.as_deref(),
             a.speed,
+            false,
         )?),
         None => Err(open_bank_at(&a.bank, a.speed)?),
     };
@@ -44,7 +45,7 @@ pub(super) fn run(a: &AuditArgs) -> Result<()> {
     let mut check = None;
     let mut identification = None;
     if let Ok((identifier, m)) = &opened {
-        let id = identifier.identify(m, a.sensors.as_deref(), crate::identify::Extras::NONE)?;
+        let id = identifier.identify(m, a.sensors.as_deref(), wheelflat::identify::Extras::NONE)?;
         let c = check_against(identifier, &id, &stored)?;
         print!("{}", audit_table(&c));
         check = Some(c);

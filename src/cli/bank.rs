@@ -3,20 +3,20 @@
 use super::args::GenerateArgs;
 use super::load_calibration;
 use super::progress::Progress;
-use crate::audit::BankAudit;
-use crate::bank::family::{read_family_manifest, SpeedBand, FAMILY_FILE};
-use crate::bank::info::{parameter_ranges, BankSize};
-use crate::bank::{self, Bank, GenerateOptions, Outcome, StorageFormat};
 use anyhow::{Context, Result};
 use std::path::Path;
 use std::time::Instant;
+use wheelflat::audit::BankAudit;
+use wheelflat::bank::family::{read_family_manifest, SpeedBand, FAMILY_FILE};
+use wheelflat::bank::info::{parameter_ranges, BankSize};
+use wheelflat::bank::{self, Bank, GenerateOptions, Outcome, StorageFormat};
 
 /// `bank generate` (`simulate_missing`) and `bank merge` (not): builds or completes the bank
 /// on a pool of the asked threads, with progress on standard error.
 pub(super) fn generate(a: &GenerateArgs, simulate_missing: bool) -> Result<()> {
     let cal = load_calibration(a.calibration.as_deref())?;
     // `--instances` counts instances as identification reads them: a folded population
-    // stores one in K + 1 ([`crate::model::Calibration::fold_shifts`]).
+    // stores one in K + 1 ([`wheelflat::model::Calibration::fold_shifts`]).
     let factor = cal.fold_factor();
     if !a.instances.is_multiple_of(factor) {
         anyhow::bail!(
@@ -31,8 +31,8 @@ pub(super) fn generate(a: &GenerateArgs, simulate_missing: bool) -> Result<()> {
         shard_size: a.shard_size,
         machine_shard: a.shard,
         format: StorageFormat {
-            codec: a.compression,
-            encoding: a.encoding,
+            codec: a.compression.into(),
+            encoding: a.encoding.into(),
         },
         simulate_missing,
     };
@@ -87,7 +87,7 @@ pub(super) fn generate(a: &GenerateArgs, simulate_missing: bool) -> Result<()> {
 /// `bank generate --speeds` (or on a family directory): every member, then `family.json`.
 fn generate_family(
     a: &GenerateArgs,
-    cal: &crate::model::CheckedCalibration,
+    cal: &wheelflat::model::CheckedCalibration,
     opts: &GenerateOptions,
     (band, loads): (SpeedBand, Option<bank::loads::LoadBand>),
     threads: usize,
@@ -321,7 +321,7 @@ pub(super) fn audit(dir: &Path, sample: usize, calibration: Option<&Path>) -> Re
 pub(super) fn audit_bank(
     b: &Bank,
     dir: &Path,
-    against: Option<crate::model::CheckedCalibration>,
+    against: Option<wheelflat::model::CheckedCalibration>,
     calibration: Option<&Path>,
     sample: usize,
 ) -> Result<()> {

@@ -2,10 +2,10 @@
 
 use super::args::Profile;
 use super::write_file;
-use crate::diagnose::noise::{self, NoiseAboveTable};
-use crate::model::Calibration;
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
+use wheelflat::diagnose::noise::{self, NoiseAboveTable};
+use wheelflat::model::Calibration;
 
 /// Prints the profile's calibration (at the converged reference's mesh and step with
 /// `converged`), or writes it to `out`.

@@ -5,12 +5,12 @@ use super::args::GenerateArgs;
 use super::{
     bank, create_output_folder, identify, load_calibration, open_identifier, simulate, write_file,
 };
-use crate::identify::refine::RefineSettings;
-use crate::identify::{synth, Extras};
-use crate::model::{Flat, Record, Simulator};
-use crate::report::response::{flat_title, response_csv, response_summary};
 use anyhow::Result;
 use std::path::Path;
+use wheelflat::identify::refine::RefineSettings;
+use wheelflat::identify::{synth, Extras};
+use wheelflat::model::{Flat, Record, Simulator};
+use wheelflat::report::response::{flat_title, response_csv, response_summary};
 
 /// The demo's field case: a flat between the bank's instances, errors seeded.
 const DEMO_FLAT: (f64, f64, f64, f64, u64) = (62.0, 0.55, 0.05, 12.156, 3);
@@ -65,7 +65,7 @@ pub(super) fn run(out: &Path, bank_dir: &Path, instances: usize) -> Result<()> {
     );
 
     println!("\n4. Identify");
-    let (identifier, m) = open_identifier(bank_dir, &measured, None, None)?;
+    let (identifier, m) = open_identifier(bank_dir, &measured, None, None, false)?;
     let mut id = identifier.identify(
         &m,
         None,
@@ -76,6 +76,10 @@ pub(super) fn run(out: &Path, bank_dir: &Path, instances: usize) -> Result<()> {
         },
     )?;
     // The refined answer beside the bank-only one (`identify --refine`).
-    identify::refine_into(&identifier, &mut id, RefineSettings::default().simulations)?;
+    wheelflat::pass::single::refine_into(
+        &identifier,
+        &mut id,
+        RefineSettings::default().simulations,
+    )?;
     identify::report(&id, &out.join("identification"), Some(&syn.truth))
 }

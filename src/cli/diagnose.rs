@@ -1,17 +1,17 @@
 //! `wheelflat diagnose`: name a model gap, add the effect, identify again.
 
 use super::args::DiagnoseArgs;
-use super::open_identifier_with;
+use super::open_identifier;
 use super::progress::Progress;
-use crate::identify::Extras;
-use crate::report::tables::diagnosis_text;
 use anyhow::Result;
+use wheelflat::identify::Extras;
+use wheelflat::report::tables::diagnosis_text;
 
 /// Identifies, diagnoses (with progress for the local bank), writes the report and prints
 /// the verdict, the stages and the ranking.
 pub(super) fn run(a: &DiagnoseArgs) -> Result<()> {
     let i = &a.input;
-    let (identifier, m) = open_identifier_with(
+    let (identifier, m) = open_identifier(
         &i.bank,
         &i.measured,
         i.calibration.as_deref(),
@@ -19,12 +19,12 @@ pub(super) fn run(a: &DiagnoseArgs) -> Result<()> {
         true,
     )?;
     // The fits re-simulate at the bank's speed: they see the pass on the bank's time axis.
-    let speed = crate::identify::result::SpeedUse {
+    let speed = wheelflat::identify::result::SpeedUse {
         pass_km_per_h: m.speed_km_per_h,
         bank_km_per_h: identifier.bank().metadata().calibration.run.speed_km_per_h,
     };
-    let (m, note) = crate::diagnose::on_bank_speed(&m, speed.bank_km_per_h)?;
-    println!("{}", crate::report::tables::speed_line(&speed));
+    let (m, note) = wheelflat::diagnose::on_bank_speed(&m, speed.bank_km_per_h)?;
+    println!("{}", wheelflat::report::tables::speed_line(&speed));
     if let Some(note) = &note {
         println!("{note}");
     }
@@ -36,19 +36,19 @@ pub(super) fn run(a: &DiagnoseArgs) -> Result<()> {
         id.cms.len(),
         id.bank_instances
     );
-    let opts = crate::diagnose::Options {
+    let opts = wheelflat::diagnose::Options {
         local_instances: a.local_instances,
         local_bank_dir: (!a.no_local_bank).then(|| a.out.join("local-bank")),
         ..Default::default()
     };
     let progress = Progress::new().with_terminal();
-    let d = crate::diagnose::diagnose(&identifier, &m, sensors, &id, &opts, &progress)?;
+    let d = wheelflat::diagnose::diagnose(&identifier, &m, sensors, &id, &opts, &progress)?;
     let times: Vec<(String, f64, f64)> = id
         .series
         .iter()
         .map(|s| (s.sensor.clone(), s.t0_s, s.sample_rate_hz))
         .collect();
-    let files = crate::report::diagnose::write_diagnosis_report(&d, &times, &a.out)?;
+    let files = wheelflat::report::diagnose::write_diagnosis_report(&d, &times, &a.out)?;
     print!("{}", diagnosis_text(&d));
     let named = d
         .naming
@@ -56,7 +56,7 @@ pub(super) fn run(a: &DiagnoseArgs) -> Result<()> {
         .map(|n| n.named_effects())
         .unwrap_or_default();
     for e in &named {
-        if let crate::model::Effect::SpeedDeviation { fraction } = e {
+        if let wheelflat::model::Effect::SpeedDeviation { fraction } = e {
             println!(
                 "the record's speed: {:.1} km/h (the bank's {} km/h × {:.3}; its speed line: {})",
                 speed.bank_km_per_h * (1.0 + fraction),

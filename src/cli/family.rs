@@ -1,10 +1,10 @@
 //! `wheelflat bank info|verify|prune|audit` on a bank family: each member in turn, through the
 //! version `family.json` pins.
 
-use crate::bank::family::{Family, FAMILY_FILE};
-use crate::bank::info::BankSize;
 use anyhow::{Context, Result};
 use std::path::Path;
+use wheelflat::bank::family::{Family, FAMILY_FILE};
+use wheelflat::bank::info::BankSize;
 
 /// Whether `dir` is a bank family.
 pub(super) fn is_family(dir: &Path) -> bool {
@@ -26,7 +26,7 @@ fn band(f: &Family) -> String {
 }
 
 /// A member in a line: its speed, and its wheel load in a family over loads.
-fn member_words(f: &Family, m: &crate::bank::family::Member) -> String {
+fn member_words(f: &Family, m: &wheelflat::bank::family::Member) -> String {
     match f.loads {
         Some(_) => format!("{:>6.1} km/h {:>5.1} kN", m.speed_km_per_h, m.wheel_load_kn),
         None => format!("{:>6.1} km/h", m.speed_km_per_h),
@@ -73,7 +73,7 @@ pub(super) fn verify(dir: &Path) -> Result<()> {
         let checked = m
             .open()
             .map_err(anyhow::Error::from)
-            .and_then(|_| crate::bank::verify(&m.current.version).map_err(anyhow::Error::from));
+            .and_then(|_| wheelflat::bank::verify(&m.current.version).map_err(anyhow::Error::from));
         match checked {
             Ok((manifest, problems)) if problems.is_empty() => println!(
                 "  {}: {} files, {} instances, checksums match",
@@ -114,7 +114,7 @@ pub(super) fn prune(dir: &Path, keep: usize) -> Result<()> {
     let f = open(dir)?;
     for m in &f.members {
         println!("member {}:", member_words(&f, m).trim());
-        let p = crate::bank::prune::prune_keeping(
+        let p = wheelflat::bank::prune::prune_keeping(
             &m.dir,
             keep,
             std::slice::from_ref(&m.current.version),
@@ -136,7 +136,7 @@ pub(super) fn audit(dir: &Path, sample: usize, calibration: Option<&Path>) -> Re
             .with_context(|| format!("member {}", m.dir.display()))?;
         let against = match calibration {
             // At the member's speed, and at its load (a factor of the family's car body).
-            Some(p) => Some(crate::bank::family_write::at_speed_and_load(
+            Some(p) => Some(wheelflat::bank::family_write::at_speed_and_load(
                 &super::load_calibration(Some(p))?,
                 m.speed_km_per_h,
                 m.load_factor,

@@ -1,8 +1,8 @@
 //! The flat of `simulate` and `synth`: its size, where it strikes, on which wheel, or none.
 
-use crate::model::{Flat, WheelPosition};
 use anyhow::Result;
 use clap::Args;
+use wheelflat::model::{Flat, WheelPosition};
 
 // A flat, or none.
 #[derive(Debug, Args)]

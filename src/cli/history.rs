@@ -1,13 +1,11 @@
 //! `wheelflat history` and the `--db` of `identify`, `train` and `watch`: storing passes in the
 //! results database and reading a wheel's passes back as one joint answer.
 
-use crate::history::{fuse, Db, FusionRule, PassRecord, Window};
-use crate::report::history::{draw_trend, HistoryReport};
 use anyhow::{Context, Result};
 use clap::Args;
-use sha2::{Digest, Sha256};
-use std::path::Path;
 use std::path::PathBuf;
+use wheelflat::history::{fuse, Db, FusionRule, PassRecord, Window};
+use wheelflat::report::history::{draw_trend, HistoryReport};
 
 // `history`.
 #[derive(Debug, Args)]
@@ -59,29 +57,8 @@ fn parse_hours(s: &str) -> Result<f64, String> {
     }
 }
 
-/// What makes a pass itself: the SHA-256 of its file(s), and `extra` (a bogie's place in a
-/// train), in hex.
-pub(super) fn pass_key(files: &[&Path], extra: &str) -> Result<String> {
-    let mut h = Sha256::new();
-    for f in files {
-        let bytes = std::fs::read(f).with_context(|| format!("cannot read {}", f.display()))?;
-        h.update((bytes.len() as u64).to_le_bytes());
-        h.update(&bytes);
-    }
-    h.update(extra.as_bytes());
-    Ok(h.finalize().iter().map(|b| format!("{b:02x}")).collect())
-}
-
-/// Opens (or makes) the results database, naming it in the error.
-pub(super) fn open_db(path: &Path) -> Result<Db> {
-    Db::open(path).with_context(|| "cannot open the results database".to_string())
-}
-
-/// Stores one pass; the line saying so.
-pub(super) fn store(db: &mut Db, rec: &PassRecord) -> Result<String> {
-    let new = db
-        .insert(rec)
-        .with_context(|| format!("cannot store the pass of {}", rec.meta.measurement))?;
+/// The line saying where a pass was stored (`new`) or that it was in already.
+pub(super) fn stored_line(db: &Db, rec: &PassRecord, new: bool) -> String {
     let who = rec
         .meta
         .bogie_id
@@ -89,11 +66,11 @@ pub(super) fn store(db: &mut Db, rec: &PassRecord) -> Result<String> {
         .map_or("no bogie id: not in any wheel's history".to_string(), |b| {
             format!("bogie {b}")
         });
-    Ok(format!(
+    format!(
         "{} {} ({who})",
         if new { "stored in" } else { "already in" },
         db.path().display()
-    ))
+    )
 }
 
 /// `wheelflat history`.

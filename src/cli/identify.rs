@@ -2,21 +2,29 @@
 
 use super::args::{CompareArgs, IdentifyArgs};
 use super::open_identifier;
-use crate::history::PassRecord;
-use crate::identify::refine::{bank_simulator, refine, RefineSettings};
-use crate::identify::synth::Truth;
-use crate::identify::{Extras, Identification, Identifier};
-use crate::report::tables::{comparison_table, identification_text};
 use anyhow::{Context, Result};
 use std::path::Path;
+use wheelflat::identify::synth::Truth;
+use wheelflat::identify::{Extras, Identification};
+use wheelflat::pass::single::{record, refine_into};
+use wheelflat::report::tables::{comparison_table, identification_text};
 
 /// Identifies; writes `identification.json` and prints the verdict before anything else, then
 /// with `--report` the figures and the HTML report.
 pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
     let i = &a.input;
     // A database that cannot be opened is refused before any work.
-    let mut db = a.db.as_deref().map(super::history::open_db).transpose()?;
-    let (identifier, m) = open_identifier(&i.bank, &i.measured, i.calibration.as_deref(), i.speed)?;
+    let mut db =
+        a.db.as_deref()
+            .map(wheelflat::pass::store::open_db)
+            .transpose()?;
+    let (identifier, m) = open_identifier(
+        &i.bank,
+        &i.measured,
+        i.calibration.as_deref(),
+        i.speed,
+        false,
+    )?;
     let extras = if a.report {
         Extras {
             baselines: !a.no_baselines,
@@ -31,20 +39,14 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
         refine_into(&identifier, &mut id, a.refine_simulations)?;
     }
     if let Some(db) = &mut db {
-        let key = super::history::pass_key(&[&i.measured], "")?;
-        let rec = PassRecord::of(
-            &id,
-            &identifier,
-            m.bogie_id.as_deref(),
-            key,
-            crate::history::db::now_s(),
-        );
-        println!("{}", super::history::store(db, &rec)?);
+        let rec = record(&id, &identifier, &m, &i.measured)?;
+        let new = wheelflat::pass::store::store(db, &rec)?;
+        println!("{}", super::history::stored_line(db, &rec, new));
     }
     if a.report {
         return report(&id, &a.out, None);
     }
-    let json = crate::report::identify::write_identification_json(&id, &a.out)
+    let json = wheelflat::report::identify::write_identification_json(&id, &a.out)
         .with_context(|| format!("cannot write the result in {}", a.out.display()))?;
     print!("{}", identification_text(&id));
     println!(
@@ -52,22 +54,6 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
         json.display(),
         json.display()
     );
-    Ok(())
-}
-
-/// Refines `id` ([`crate::identify::refine`]) with `simulations` new flats and the
-/// identifier's bank calibration, and keeps the result in `id.refinement`.
-pub(super) fn refine_into(
-    identifier: &Identifier,
-    id: &mut Identification,
-    simulations: usize,
-) -> Result<()> {
-    let sim = bank_simulator(identifier)?;
-    let settings = RefineSettings {
-        simulations,
-        ..RefineSettings::default()
-    };
-    id.refinement = Some(refine(identifier, &sim, id, settings)?);
     Ok(())
 }
 
@@ -88,7 +74,7 @@ pub(super) fn report_from_json(from: &Path, out: Option<&Path>) -> Result<()> {
             .unwrap_or(Path::new("."))
             .to_path_buf(),
     };
-    let (figures, html) = crate::report::identify::write_figures_and_html(&id, &dir)
+    let (figures, html) = wheelflat::report::identify::write_figures_and_html(&id, &dir)
         .with_context(|| format!("cannot write the report in {}", dir.display()))?;
     println!("wrote {} ({} figures)", html.display(), figures.len());
     Ok(())
@@ -96,7 +82,7 @@ pub(super) fn report_from_json(from: &Path, out: Option<&Path>) -> Result<()> {
 
 /// Writes an identification's report into `dir` and prints its summary and comparison table.
 pub(super) fn report(id: &Identification, dir: &Path, truth: Option<&Truth>) -> Result<()> {
-    let files = crate::report::identify::write_identification_report(id, dir)
+    let files = wheelflat::report::identify::write_identification_report(id, dir)
         .with_context(|| format!("cannot write the report in {}", dir.display()))?;
     print!("{}", identification_text(id));
     print!("{}", comparison_table(id, truth));
@@ -113,7 +99,13 @@ pub(super) fn report(id: &Identification, dir: &Path, truth: Option<&Truth>) -> 
 /// given).
 pub(super) fn compare(a: &CompareArgs) -> Result<()> {
     let i = &a.input;
-    let (identifier, m) = open_identifier(&i.bank, &i.measured, i.calibration.as_deref(), i.speed)?;
+    let (identifier, m) = open_identifier(
+        &i.bank,
+        &i.measured,
+        i.calibration.as_deref(),
+        i.speed,
+        false,
+    )?;
     let truth = match &a.truth {
         Some(p) => {
             let text = super::read_text(p, super::MAX_SMALL_FILE_BYTES, "truth file")?;

@@ -16,6 +16,7 @@ mod demo;
 mod diagnose;
 mod family;
 mod flat_args;
+mod format_args;
 mod history;
 mod identify;
 mod progress;
@@ -24,16 +25,17 @@ mod synth;
 mod train;
 mod watch;
 
-use crate::bank::family::Family;
-use crate::bank::Bank;
-use crate::identify::family::Members;
-use crate::identify::{Identifier, Measurement};
-use crate::model::{Calibration, CheckedCalibration};
 use anyhow::{Context, Result};
 use args::{BankCommand, Cli, Command};
 use clap::Parser;
 use std::path::Path;
 use std::process::ExitCode;
+use wheelflat::bank::family::Family;
+use wheelflat::bank::Bank;
+use wheelflat::pass::input::{
+    load_calibration, open_identifier, open_members, read_measurement, read_text, MAX_JSON_BYTES,
+    MAX_SMALL_FILE_BYTES,
+};
 
 /// Entry point of the binary.
 pub fn main() -> ExitCode {
@@ -96,65 +98,10 @@ pub fn main() -> ExitCode {
     }
 }
 
-/// Size limits of the files wheelflat reads (bytes): a 5-sensor, 10 s measurement at 2.5 kHz
-/// is about 2 MB, a whole train's recording a few times that, a calibration a few kB.
-pub(crate) const MAX_MEASUREMENT_BYTES: u64 = 64 << 20;
-/// A trigger file: one line per wheel.
-pub(crate) const MAX_TRIGGER_BYTES: u64 = 1 << 20;
-/// A calibration file, a truth file.
-pub(crate) const MAX_SMALL_FILE_BYTES: u64 = 1 << 20;
-/// An identification.json (its series and candidate model set).
-pub(crate) const MAX_JSON_BYTES: u64 = 256 << 20;
-
-/// Reads a text file that must be a regular file of at most `limit` bytes: a device, a pipe or
-/// a directory (`/dev/zero` would read forever) and an oversized file are refused, naming the
-/// file, before anything is read.
-pub(crate) fn read_text(path: &Path, limit: u64, what: &str) -> Result<String> {
-    let meta = std::fs::metadata(path)
-        .with_context(|| format!("cannot read {what} {}", path.display()))?;
-    if !meta.is_file() {
-        anyhow::bail!(
-            "{what} {} is not a regular file (a device, pipe or directory cannot be read as one)",
-            path.display()
-        );
-    }
-    if meta.len() > limit {
-        anyhow::bail!(
-            "{what} {}: {} bytes, more than the {limit} a {what} may have",
-            path.display(),
-            meta.len()
-        );
-    }
-    let mut text = String::new();
-    use std::io::Read as _;
-    std::fs::File::open(path)
-        .and_then(|f| f.take(limit + 1).read_to_string(&mut text))
-        .with_context(|| format!("cannot read {what} {}", path.display()))?;
-    if text.len() as u64 > limit {
-        anyhow::bail!(
-            "{what} {} grew past {limit} bytes while it was read",
-            path.display()
-        );
-    }
-    Ok(text)
-}
-
-/// Reads and checks a calibration file, or returns the built-in defaults.
-pub fn load_calibration(path: Option<&Path>) -> Result<CheckedCalibration> {
-    let Some(path) = path else {
-        return Ok(Calibration::default().check()?);
-    };
-    let text = read_text(path, MAX_SMALL_FILE_BYTES, "calibration file")?;
-    let doc = Calibration::from_toml_str(&text)
-        .with_context(|| format!("in calibration file {}", path.display()))?;
-    doc.check()
-        .with_context(|| format!("in calibration file {}", path.display()))
-}
-
-/// Writes a file through [`crate::atomic::write_atomically`], naming it in the error (the
+/// Writes a file through [`wheelflat::atomic::write_atomically`], naming it in the error (the
 /// library's I/O error alone does not say which file).
 fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
-    crate::atomic::write_atomically(path, bytes)
+    wheelflat::atomic::write_atomically(path, bytes)
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
@@ -162,64 +109,6 @@ fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
 fn create_output_folder(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir)
         .with_context(|| format!("cannot create output folder {}", dir.display()))
-}
-
-/// Opens the bank a measurement is compared with and reads the measurement: for a family, the
-/// member at the pass's speed (the CSV's `# speed_km_per_h` line, or `speed` when it has
-/// none; never assumed). The settings and uncertainty table come from `calibration` when
-/// given, else from the bank.
-fn open_identifier(
-    bank_dir: &Path,
-    measured: &Path,
-    calibration: Option<&Path>,
-    speed: Option<f64>,
-) -> Result<(Identifier, Measurement)> {
-    open_identifier_with(bank_dir, measured, calibration, speed, false)
-}
-
-/// [`open_identifier`]; with `nearest` (diagnosis), a stated speed beyond every member's band
-/// opens the nearest member instead of refusing (the diagnosis then lets the record say its
-/// speed).
-fn open_identifier_with(
-    bank_dir: &Path,
-    measured: &Path,
-    calibration: Option<&Path>,
-    speed: Option<f64>,
-    nearest: bool,
-) -> Result<(Identifier, Measurement)> {
-    let mut members = open_members(bank_dir, calibration)?;
-    let (m, k) = read_measurement(&mut members, measured, speed, nearest)?;
-    Ok((members.take(k), m))
-}
-
-/// Opens a bank or bank family for identification, with the settings of `calibration` when
-/// given.
-fn open_members(bank_dir: &Path, calibration: Option<&Path>) -> Result<Members> {
-    let settings = match calibration {
-        Some(p) => Some(load_calibration(Some(p))?.identification.clone()),
-        None => None,
-    };
-    Members::open(bank_dir, settings)
-        .with_context(|| format!("cannot open bank {}", bank_dir.display()))
-}
-
-/// Reads a measurement on the family's sample rate, with its speed stated (its line or
-/// `speed`); the member its speed picks, opened (a speed outside the band names the file).
-fn read_measurement(
-    members: &mut Members,
-    path: &Path,
-    speed: Option<f64>,
-    nearest: bool,
-) -> Result<(Measurement, usize)> {
-    let text = read_text(path, MAX_MEASUREMENT_BYTES, "measurement")?;
-    let mut m = Measurement::from_csv(path, &text, members.family().sample_rate_hz)?;
-    let v = m.pass_speed(speed)?;
-    m.speed_km_per_h = Some(v);
-    // Its speed, then the load its record shows, pick the member.
-    let k = members
-        .member_for_pass(&m, None, nearest)
-        .with_context(|| format!("measurement {}", path.display()))?;
-    Ok((m, k))
 }
 
 /// Opens a bank, or the member of a bank family at `speed` (which a family needs; for a

@@ -1,11 +1,11 @@
 //! The progress observer of long jobs (bank generation, the diagnosis' local bank): it
 //! attaches to the library from outside ([`GenerateObserver`]) and never touches the physics.
 
-use crate::bank::GenerateObserver;
 use std::io::IsTerminal;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
+use wheelflat::bank::GenerateObserver;
 
 /// Progress of a bank generation: an indicatif bar on a terminal, plain periodic log lines
 /// otherwise (cron, batch schedulers).

@@ -2,11 +2,11 @@
 
 use super::args::SimulateArgs;
 use super::{load_calibration, write_file};
-use crate::model::{CheckedCalibration, Record, Response, Simulator};
-use crate::report::response::{flat_title, plot_response, response_csv, response_summary};
 use anyhow::{Context, Result};
 use std::path::Path;
 use std::time::Instant;
+use wheelflat::model::{CheckedCalibration, Record, Response, Simulator};
+use wheelflat::report::response::{flat_title, plot_response, response_csv, response_summary};
 
 /// Simulates, writes the CSV, prints the summary and the timing, draws the figure if asked.
 pub(super) fn run(a: &SimulateArgs) -> Result<()> {

@@ -2,12 +2,12 @@
 
 use super::args::{parse_effect, parse_flat_on, SynthArgs};
 use super::{load_calibration, write_file};
-use crate::identify::synth::{synthesize_with_noise, FieldNoise, Synthetic};
-use crate::model::CheckedCalibration;
-use crate::report::response::flat_title;
-use crate::train::{default_flats, synthesize_train, TrainSpec};
 use anyhow::{Context, Result};
 use std::path::Path;
+use wheelflat::identify::synth::{synthesize_with_noise, FieldNoise, Synthetic};
+use wheelflat::model::CheckedCalibration;
+use wheelflat::report::response::flat_title;
+use wheelflat::train::{default_flats, synthesize_train, TrainSpec};
 
 /// Adds the `--effect`s to the calibration, then synthesises one bogie or (`--train`) a
 /// train, writing the measurement and its truth.

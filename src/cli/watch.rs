@@ -19,15 +19,14 @@
 //! - **Clean stop.** SIGTERM or SIGINT ends the loop after the measurement in progress.
 
 use super::args::WatchArgs;
-use crate::bank::family::Family;
-use crate::history::{Db, PassRecord};
-use crate::identify::family::Members;
-use crate::identify::Extras;
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+use wheelflat::bank::family::Family;
+use wheelflat::history::Db;
+use wheelflat::identify::family::Members;
 
 /// What marks a recording as a train pass: `NAME.csv` with `NAME` + this beside it.
 const TRIGGERS_SUFFIX: &str = ".triggers.csv";
@@ -60,7 +59,7 @@ impl Open {
 }
 
 fn open(a: &WatchArgs) -> Result<Open> {
-    let members = super::open_members(&a.bank, a.calibration.as_deref())?;
+    let members = wheelflat::pass::input::open_members(&a.bank, a.calibration.as_deref())?;
     Ok(Open {
         key: members.family().key.clone(),
         members,
@@ -100,27 +99,29 @@ fn identify_one(
     db: Option<&mut Db>,
 ) -> Result<String> {
     if let Some(triggers) = &beside.triggers {
-        let refine = a.refine.then_some(crate::identify::refine::RefineSettings {
-            simulations: a.refine_simulations,
-            ..Default::default()
-        });
-        let (result, picked) = super::train::identify_pass(
+        let refine = a
+            .refine
+            .then_some(wheelflat::identify::refine::RefineSettings {
+                simulations: a.refine_simulations,
+                ..Default::default()
+            });
+        let pass = wheelflat::pass::train::identify_train(
             &mut open.members,
             path,
             triggers,
             beside.consist.as_deref(),
             refine,
         )?;
-        std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-        super::train::write_outputs(&result, out)?;
+        wheelflat::pass::train::write_train(&pass.result, out)?;
         // Stored before the inputs move: a crash between the two stores nothing twice.
         if let Some(db) = db {
-            super::train::store_pass(db, &open.members, &picked, &result, &[path, triggers])?;
+            wheelflat::pass::train::store_train(db, &open.members, &pass, &[path, triggers])?;
         }
+        let result = &pass.result;
         let flats: Vec<String> = result
             .wheels
             .iter()
-            .filter(|w| w.flat != "no")
+            .filter(|w| w.flat != wheelflat::identify::FlatVerdict::No)
             .map(|w| format!("bogie {} {} {}", w.bogie, w.wheel.name(), w.severity))
             .collect();
         return Ok(format!(
@@ -133,25 +134,16 @@ fn identify_one(
             }
         ));
     }
-    let (m, k) = super::read_measurement(&mut open.members, path, None, false)?;
-    let identifier = open.members.get(k);
-    let mut id = identifier.identify(&m, a.sensors.as_deref(), Extras::NONE)?;
-    if a.refine {
-        super::identify::refine_into(identifier, &mut id, a.refine_simulations)?;
-    }
-    crate::report::identify::write_identification_json(&id, out)
-        .with_context(|| format!("cannot write the result in {}", out.display()))?;
-    if let Some(db) = db {
-        let rec = PassRecord::of(
-            &id,
-            identifier,
-            m.bogie_id.as_deref(),
-            super::history::pass_key(&[path], "")?,
-            crate::history::db::now_s(),
-        );
-        db.insert(&rec)
-            .with_context(|| format!("cannot store the pass of {}", path.display()))?;
-    }
+    let refine = a.refine.then_some(a.refine_simulations);
+    let pass = wheelflat::pass::single::identify_file(
+        &mut open.members,
+        path,
+        a.sensors.as_deref(),
+        refine,
+        out,
+        db,
+    )?;
+    let (id, m) = (&pass.id, &pass.measurement);
     let refined = id
         .refinement
         .as_ref()
@@ -242,7 +234,10 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
     }
     let (done, failed) = (a.inbox.join("done"), a.inbox.join("failed"));
     // The results database, opened once (refused before any pass when it is not one).
-    let mut db = a.db.as_deref().map(super::history::open_db).transpose()?;
+    let mut db =
+        a.db.as_deref()
+            .map(wheelflat::pass::store::open_db)
+            .transpose()?;
     let mut current = open(a)?;
     println!(
         "{} watching {} with bank {} (poll {} ms)",

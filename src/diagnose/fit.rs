@@ -261,11 +261,27 @@ impl<'a> Problem<'a> {
     }
 }
 
+/// What a fitted parameter stands for, where the diagnosis reads one back (its label is for
+/// people only).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Role {
+    /// Read back only as part of the effect.
+    #[default]
+    Other,
+    /// Where the effect is along the track (a rail dip's position, a second flat's impact
+    /// position).
+    Position,
+    /// A second flat's depth (its L0 is told from it).
+    SecondFlatDepth,
+}
+
 /// A fitted parameter's bounds and finite-difference step.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Param {
     /// Name and unit.
     pub name: String,
+    /// What it stands for.
+    pub role: Role,
     /// Lower bound.
     pub lo: f64,
     /// Upper bound.
@@ -279,10 +295,16 @@ impl Param {
     pub fn new(name: &str, lo: f64, hi: f64, step: f64) -> Param {
         Param {
             name: name.to_string(),
+            role: Role::Other,
             lo,
             hi,
             step,
         }
+    }
+
+    /// The parameter standing for `role`.
+    pub fn with_role(self, role: Role) -> Param {
+        Param { role, ..self }
     }
 }
 

@@ -7,7 +7,7 @@
 //! quarter bay from [`DIP_REACH_M`] before the first measured sensor to as far after the last;
 //! a second flat anywhere along a revolution of either wheel.
 
-use super::fit::Param;
+use super::fit::{Param, Role};
 use crate::model::{Effect, WheelPosition};
 
 /// How far from the outermost measured sensors dips are sought (m): five bays of the default
@@ -158,7 +158,7 @@ fn rail_families(ctx: &Context, out: &mut Vec<Family>) {
         "rail_dip",
         "rail".into(),
         vec![
-            Param::new("position (m)", x0, x1, 0.005),
+            Param::new("position (m)", x0, x1, 0.005).with_role(Role::Position),
             Param::new("length (m)", 0.1, 3.0, 0.005),
             Param::new("depth (mm)", -3.0, 3.0, 0.005),
         ],
@@ -253,9 +253,11 @@ fn wheel_families(ctx: &Context, out: &mut Vec<Family>) {
             },
             vec![
                 Param::new("L (mm)", l_lo, l_hi, 2e-3 * (l_hi - l_lo)),
-                Param::new("d (mm)", d_lo, d_hi, 2e-3 * (d_hi - d_lo)),
+                Param::new("d (mm)", d_lo, d_hi, 2e-3 * (d_hi - d_lo))
+                    .with_role(Role::SecondFlatDepth),
                 Param::new("c/(d/2)", 0.0, 0.98, 2e-3),
-                Param::new("X_p (m)", start - 0.3, start + circ + 0.3, 2e-4),
+                Param::new("X_p (m)", start - 0.3, start + circ + 0.3, 2e-4)
+                    .with_role(Role::Position),
             ],
             seeds,
             Box::new(move |p| Effect::SecondFlat {
@@ -375,19 +377,19 @@ pub fn sleeper_of(e: &Effect) -> Option<usize> {
 }
 
 /// The L0 range of a fitted second flat (`candidate` of kind `second_flat`, its parameters
-/// as fitted, the first's of a pair prefixed `first: `): `L0 = √(8·d·R_w)` over
+/// as fitted; `of_first`: the first effect's of a pair): `L0 = √(8·d·R_w)` over
 /// `d ± 2 sd`, the standard deviation scaled by `√(χ²/dof)` when the fit leaves more than
 /// the noise model (a standard inflation for misfit). None without a finite sd.
 pub fn second_flat_l0_mm(
     candidate: &super::name::Candidate,
-    prefix: &str,
+    of_first: bool,
     wheel_radius_m: f64,
     samples: usize,
 ) -> Option<[f64; 2]> {
     let d = candidate
         .parameters
         .iter()
-        .find(|p| p.name == format!("{prefix}d (mm)"))?;
+        .find(|p| p.role == Role::SecondFlatDepth && p.of_first == of_first)?;
     if !d.sd.is_finite() {
         return None;
     }

@@ -12,7 +12,6 @@ pub mod name;
 pub mod noise;
 pub mod restart;
 pub mod select;
-pub mod suite;
 
 use crate::audit::AuditError;
 use crate::identify::{Identification, Identifier};
@@ -259,15 +258,15 @@ fn named_second_flat_l0(naming: &Naming, wheel_radius_m: f64) -> Option<[f64; 2]
         (Some(s), _) if s.named => {
             let pair = s.ranking.first()?;
             if pair.kind == "second_flat" {
-                library::second_flat_l0_mm(pair, "", wheel_radius_m, n)
+                library::second_flat_l0_mm(pair, false, wheel_radius_m, n)
             } else if s.first.kind == "second_flat" {
-                library::second_flat_l0_mm(pair, "first: ", wheel_radius_m, n)
+                library::second_flat_l0_mm(pair, true, wheel_radius_m, n)
             } else {
                 None
             }
         }
         (_, Some(i)) if naming.ranking[i].kind == "second_flat" => {
-            library::second_flat_l0_mm(&naming.ranking[i], "", wheel_radius_m, n)
+            library::second_flat_l0_mm(&naming.ranking[i], false, wheel_radius_m, n)
         }
         _ => None,
     }

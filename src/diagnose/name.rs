@@ -16,7 +16,7 @@
 //! effect's), N the samples compared, M the families of the kind (a uniform prior over the
 //! discrete choices: the more places an effect may sit, the more it must explain).
 
-use super::fit::{levenberg_marquardt, Evaluation, FlatVector, Param, Problem};
+use super::fit::{levenberg_marquardt, Evaluation, FlatVector, Param, Problem, Role};
 pub use super::library::{families, Context, Family};
 use super::library::{location_of, sleeper_of};
 use super::restart::fit_with_restart;
@@ -53,6 +53,12 @@ pub struct Estimate {
     pub value: f64,
     /// Standard deviation from the curvature of χ² (NaN where it could not be had).
     pub sd: f64,
+    /// What it stands for (not written: what the diagnosis reads back while it runs).
+    #[serde(skip)]
+    pub role: Role,
+    /// The first effect's of a pair, its label prefixed `first: ` (not written).
+    #[serde(skip)]
+    pub of_first: bool,
 }
 
 /// One effect fitted to the measurement.
@@ -233,10 +239,10 @@ pub(crate) fn place_uncertainty(best: &Candidate, all: &[Candidate]) -> String {
         }) => Some(*impact_position_m),
         _ => None,
     };
-    let sd = |c: &Candidate, name: &str| {
+    let sd = |c: &Candidate, role: Role| {
         c.parameters
             .iter()
-            .find(|p| p.name.starts_with(name))
+            .find(|p| p.role == role && !p.of_first)
             .map(|p| p.sd)
             .filter(|s| s.is_finite())
     };
@@ -257,7 +263,7 @@ pub(crate) fn place_uncertainty(best: &Candidate, all: &[Candidate]) -> String {
     } else if let Some(x) = position(best) {
         let xs: Vec<f64> = near.iter().filter_map(|c| position(c)).collect();
         let (lo, hi) = xs.iter().fold((x, x), |(a, b), &v| (a.min(v), b.max(v)));
-        let sd = sd(best, "position").or_else(|| sd(best, "X_p"));
+        let sd = sd(best, Role::Position);
         format!(
             "x = {x:.3} m{}; fits within ΔBIC {CLEARLY_BETTER} span {lo:.3}–{hi:.3} m",
             sd.map_or(String::new(), |s| format!(" ± {:.3} m (2 sd)", 2.0 * s))
@@ -526,6 +532,8 @@ pub fn name(
                     name: p.name.clone(),
                     value: v,
                     sd,
+                    role: p.role,
+                    of_first: false,
                 })
                 .collect(),
             flat,

@@ -173,25 +173,22 @@ pub fn forward(
                 &ev.predicted_kn,
                 judge.per_point_probability,
             );
-            let estimates = |params: &[Param], x: &[f64], sd: &[f64], prefix: &str| {
+            let estimates = |params: &[Param], x: &[f64], sd: &[f64], of_first: bool| {
                 params
                     .iter()
                     .zip(x.iter().zip(sd))
                     .map(|(p, (&v, &s))| Estimate {
-                        name: format!("{prefix}{}", p.name),
+                        name: format!("{}{}", if of_first { "first: " } else { "" }, p.name),
                         value: v,
                         sd: s,
+                        role: p.role,
+                        of_first,
                     })
                     .collect::<Vec<_>>()
             };
             // The second effect's parameters, then the first's at the joint fit ("first: …").
-            let mut parameters = estimates(&fam.params, &x[4 + k1..], &sd[4 + k1..], "");
-            parameters.extend(estimates(
-                &f1.params,
-                &x[4..4 + k1],
-                &sd[4..4 + k1],
-                "first: ",
-            ));
+            let mut parameters = estimates(&fam.params, &x[4 + k1..], &sd[4 + k1..], false);
+            parameters.extend(estimates(&f1.params, &x[4..4 + k1], &sd[4..4 + k1], true));
             Candidate {
                 kind: fam.kind.to_string(),
                 location: location_of(fam, &b),
@@ -230,7 +227,7 @@ pub fn forward(
     let first_x: Vec<f64> = best
         .parameters
         .iter()
-        .filter(|p| p.name.starts_with("first: "))
+        .filter(|p| p.of_first)
         .map(|p| p.value)
         .collect();
     let effects = vec![

@@ -2,7 +2,7 @@
 //! same size, equidistant points (with the thresholds and cell rule of the method).
 
 use super::falsify::{falsify, random_subset_counts, Point};
-use super::result::{Falsification, MeasuredSeries, RandomSubsets};
+use super::result::{Falsification, MeasuredSeries, Method, RandomSubsets};
 use super::uncertainty::ThresholdCurve;
 use super::{Identifier, IdentifyError};
 
@@ -28,7 +28,9 @@ impl Identifier {
         };
         let mean = counts.iter().sum::<usize>() as f64 / counts.len().max(1) as f64;
         let row = Falsification {
-            method: format!("random PIP subsets (mean of {})", s.random_subsets),
+            method: Method::RandomSubsets {
+                subsets: s.random_subsets,
+            },
             points: m,
             cms_count: mean.round() as usize,
             ranges: None,
@@ -88,7 +90,7 @@ impl Identifier {
             .collect();
         let eq_cms = falsify(&eq_points, self.resolution());
         Ok(Falsification {
-            method: "equidistant points".into(),
+            method: Method::Equidistant,
             points: eq_points.len(),
             cms_count: eq_cms.len(),
             ranges: self.ranges(eq_cms.iter().map(|&k| k as usize)),

@@ -22,6 +22,25 @@ use super::result::MeasuredSeries;
 use super::uncertainty::{CombinedUncertainty, ThresholdCurve};
 use serde::{Deserialize, Serialize};
 
+/// Which extreme of its window an envelope point compares. Written as `max` or `min`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Extreme {
+    /// The window's maximum.
+    Max,
+    /// The window's minimum.
+    Min,
+}
+
+impl std::fmt::Display for Extreme {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.pad(match self {
+            Extreme::Max => "max",
+            Extreme::Min => "min",
+        })
+    }
+}
+
 /// One envelope comparison point, as reported.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct EnvelopePoint {
@@ -31,8 +50,8 @@ pub struct EnvelopePoint {
     pub sample: usize,
     /// Half-width of the window (samples).
     pub half_width: usize,
-    /// "max" or "min".
-    pub kind: String,
+    /// The window's maximum or minimum.
+    pub kind: Extreme,
     /// The measured feature (kN).
     pub measured_kn: f64,
     /// Thresholds on feature − measured feature at the measured force (kN).
@@ -130,7 +149,7 @@ pub fn points(
                 series: si,
                 sample: k,
                 half_width,
-                kind: if max { "max" } else { "min" }.into(),
+                kind: if max { Extreme::Max } else { Extreme::Min },
                 measured_kn: y,
                 threshold_low_kn: lo,
                 threshold_high_kn: hi,

@@ -41,10 +41,7 @@ impl Members {
     /// The member a pass at `speed_km_per_h` is compared with, opened if it was not yet;
     /// its index for [`Members::get`]. A speed no member covers is an error naming the band.
     pub fn member_for(&mut self, speed_km_per_h: f64) -> Result<usize, IdentifyError> {
-        let k = self
-            .family
-            .member_for(speed_km_per_h)
-            .map_err(|e| IdentifyError::Invalid(e.to_string()))?;
+        let k = self.family.member_for(speed_km_per_h)?;
         self.open_member(k)?;
         Ok(k)
     }
@@ -72,9 +69,7 @@ impl Members {
         let k = if nearest {
             self.family.nearest_member(v)
         } else {
-            self.family
-                .member_for(v)
-                .map_err(|e| IdentifyError::Invalid(e.to_string()))?
+            self.family.member_for(v)?
         };
         let at_speed = self.family.at_speed_of(k);
         // The member nearest the calibration's own load reads the record's.

@@ -177,7 +177,7 @@ impl Identifier {
             population: population_ranges(&meta.calibration),
             alignment,
             series,
-            pip_distance: s.pip_distance.clone(),
+            pip_distance: s.pip_distance,
             pips_per_series: s.pips_per_series,
             candidates: Vec::new(),
             eip: Vec::new(),

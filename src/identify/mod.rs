@@ -5,11 +5,9 @@
 //! parameters, the Monte Carlo uncertainty samples); [`Identifier::identify`] is the per-
 //! measurement path: align, PIP, read the candidate columns, entropy selection, falsify.
 
-pub mod aligned;
 mod baselines;
 pub mod buffer;
 pub mod cells;
-pub mod coverage;
 pub mod detect;
 mod discretisation;
 pub mod entropy;
@@ -31,7 +29,7 @@ pub mod uncertainty;
 
 pub use measurement::Measurement;
 pub use result::Identification;
-pub use severity::{Severity, SeverityRange};
+pub use severity::{FlatVerdict, Severity, SeverityRange};
 
 use crate::bank::{Bank, BankError, Parameters};
 use crate::model::calibration::IdentificationParams;
@@ -43,7 +41,7 @@ use falsify::{falsify, residual_minimisation, Point, Resolution};
 use prepare::Prepared;
 use ranges::{instance, population_ranges, ranges_of};
 pub use result::WheelRanges;
-use result::{CandidatePoint, EntropyCurve, Falsification, InstanceParams, ParamRanges};
+use result::{CandidatePoint, EntropyCurve, Falsification, InstanceParams, Method, ParamRanges};
 use severity::{below_population_words, summarise};
 use std::path::PathBuf;
 use std::sync::Mutex;
@@ -88,7 +86,22 @@ pub enum IdentifyError {
     /// The bank could not be read.
     #[error(transparent)]
     Bank(#[from] BankError),
-    /// Invalid settings.
+    /// No member of a bank family covers the pass's speed.
+    #[error(transparent)]
+    Speed(#[from] crate::bank::family::SpeedError),
+    /// The working memory of an identification could not be mapped.
+    #[error("cannot map {mb} MB for {what}")]
+    Memory {
+        /// What it was for.
+        what: &'static str,
+        /// Its size (MB).
+        mb: usize,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A setting or request outside its range, or a bank that cannot serve it, named with
+    /// its value.
     #[error("{0}")]
     Invalid(String),
 }
@@ -196,6 +209,11 @@ impl Identifier {
     /// The bank.
     pub fn bank(&self) -> &Bank {
         &self.bank
+    }
+
+    /// The bank's parameters (one row per instance).
+    pub fn params(&self) -> &Parameters {
+        &self.params
     }
 
     /// The settings in use.
@@ -314,12 +332,13 @@ impl Identifier {
             .collect();
         let n = self.bank.instances();
         let mut buffer = self.buffers.lock().unwrap_or_else(|e| e.into_inner());
-        let flat = buffer.values(cols.len() * n).map_err(|e| {
-            IdentifyError::Invalid(format!(
-                "cannot map {} MB for the bank's predictions: {e}",
-                (cols.len() * n * 4) >> 20
-            ))
-        })?;
+        let flat = buffer
+            .values(cols.len() * n)
+            .map_err(|source| IdentifyError::Memory {
+                what: "the bank's predictions",
+                mb: (cols.len() * n * 4) >> 20,
+                source,
+            })?;
         self.bank.read_columns_flat(&cols, flat)?;
         let (flat, env_flat) = flat.split_at(cands.len() * n);
         let predictions: Vec<&[f32]> = flat.chunks(n.max(1)).collect();
@@ -348,12 +367,14 @@ impl Identifier {
             (lo - widening[i], hi + widening[i])
         };
         let mut bin_buffer = self.bin_buffers.lock().unwrap_or_else(|e| e.into_inner());
-        let bins: &mut [u16] = bin_buffer.values(measured.len() * n).map_err(|e| {
-            IdentifyError::Invalid(format!(
-                "cannot map {} MB for the predictions' bins: {e}",
-                (measured.len() * n * 2) >> 20
-            ))
-        })?;
+        let bins: &mut [u16] =
+            bin_buffer
+                .values(measured.len() * n)
+                .map_err(|source| IdentifyError::Memory {
+                    what: "the predictions' bins",
+                    mb: (measured.len() * n * 2) >> 20,
+                    source,
+                })?;
         // Bins every candidate's predictions at the widths for p into `bins` (one column a
         // candidate); returns each column's number of bins, entropy and instances outside its
         // most populated bin.
@@ -486,16 +507,10 @@ impl Identifier {
                 })
             })
             .collect();
-        let departures = if s.falsify_at_departures {
-            " + departures"
-        } else {
-            ""
-        };
         let mut falsifications = vec![Falsification {
-            method: if env_reported.is_empty() {
-                format!("EIP (joint entropy){departures}")
-            } else {
-                format!("EIP (joint entropy) + envelope{departures}")
+            method: Method::Eip {
+                envelope: !env_reported.is_empty(),
+                departures: s.falsify_at_departures,
             },
             points: method_points.len(),
             cms_count: cms.len(),
@@ -565,7 +580,7 @@ impl Identifier {
             population,
             alignment,
             series,
-            pip_distance: s.pip_distance.clone(),
+            pip_distance: s.pip_distance,
             pips_per_series: s.pips_per_series,
             candidates,
             eip: selection.order,

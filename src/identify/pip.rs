@@ -2,29 +2,7 @@
 //! first and last points, then repeatedly add the point farthest from the line joining its
 //! two neighbouring PIPs.
 
-/// How "far from the line" is measured.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PipDistance {
-    /// Vertical distance `|y − ŷ(x)|` (the paper's choice for the second step).
-    Vertical,
-    /// Perpendicular distance to the line, with time and force each scaled to [0, 1] over the
-    /// series (the distance is otherwise unit-dependent).
-    Perpendicular,
-    /// Sum of the Euclidean distances to the two neighbouring PIPs, same scaling.
-    Euclidean,
-}
-
-impl PipDistance {
-    /// Parses `vertical`, `perpendicular` or `euclidean`.
-    pub fn parse(s: &str) -> Option<PipDistance> {
-        match s {
-            "vertical" => Some(PipDistance::Vertical),
-            "perpendicular" => Some(PipDistance::Perpendicular),
-            "euclidean" => Some(PipDistance::Euclidean),
-            _ => None,
-        }
-    }
-}
+pub use crate::model::calibration::PipDistance;
 
 /// Indices of the `j` most important points of `y`, in the order found (first two: the ends).
 pub fn perceptually_important_points(y: &[f64], j: usize, distance: PipDistance) -> Vec<usize> {

@@ -3,8 +3,8 @@
 //! important points.
 
 use super::measurement;
-use super::pip::{perceptually_important_points, PipDistance};
-use super::result::{Alignment, MeasuredSeries};
+use super::pip::perceptually_important_points;
+use super::result::{Alignment, AlignmentMethod, MeasuredSeries};
 use super::{Identifier, IdentifyError, Measurement};
 
 /// A measurement made ready for comparison with the bank.
@@ -30,9 +30,7 @@ impl Identifier {
         let s = &self.settings;
         // A pass at another speed than the bank's is put on the bank's time axis first.
         let m = &*m.at_bank_speed(cal.run.speed_km_per_h)?;
-        let distance = PipDistance::parse(&s.pip_distance).ok_or_else(|| {
-            IdentifyError::Invalid(format!("unknown PIP distance `{}`", s.pip_distance))
-        })?;
+        let distance = s.pip_distance;
 
         // Sensors: those in the file (and asked for), each must be in the bank.
         let mut used: Vec<(usize, usize)> = Vec::new(); // (measurement index, bank axis index)
@@ -81,7 +79,7 @@ impl Identifier {
             Some(t) => {
                 let t_bank = (cal.sensors.laser_trigger_m - cal.run.leading_wheel_start_m) / speed;
                 Alignment {
-                    method: "laser trigger".into(),
+                    method: AlignmentMethod::LaserTrigger,
                     shift_s: t_bank - t,
                     correlation: None,
                 }
@@ -100,7 +98,7 @@ impl Identifier {
                     }
                 })?;
                 Alignment {
-                    method: "cross-correlation".into(),
+                    method: AlignmentMethod::CrossCorrelation,
                     shift_s,
                     correlation: Some(c),
                 }

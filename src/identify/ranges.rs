@@ -65,7 +65,7 @@ fn impact_of(
 }
 
 /// The distinct wheels among stored wheel codes, leading first.
-pub(crate) fn wheels_of(codes: impl Iterator<Item = u8>) -> Vec<WheelPosition> {
+pub fn wheels_of(codes: impl Iterator<Item = u8>) -> Vec<WheelPosition> {
     let mut seen = [false; 2];
     for c in codes {
         seen[usize::from(c != 0)] = true;

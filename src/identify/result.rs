@@ -2,12 +2,34 @@
 
 use crate::model::WheelPosition;
 use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// How the measurement was put on the bank's time axis. Written as `laser trigger` or
+/// `cross-correlation`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum AlignmentMethod {
+    /// The laser trigger's time stamp.
+    #[serde(rename = "laser trigger")]
+    LaserTrigger,
+    /// Cross-correlation with the bank's flat-free response.
+    #[serde(rename = "cross-correlation")]
+    CrossCorrelation,
+}
+
+impl fmt::Display for AlignmentMethod {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.pad(match self {
+            AlignmentMethod::LaserTrigger => "laser trigger",
+            AlignmentMethod::CrossCorrelation => "cross-correlation",
+        })
+    }
+}
 
 /// How the measurement was put on the bank's time axis.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Alignment {
-    /// `"laser trigger"` or `"cross-correlation"`.
-    pub method: String,
+    /// The laser trigger or cross-correlation.
+    pub method: AlignmentMethod,
     /// Bank time = measurement time + `shift_s`.
     pub shift_s: f64,
     /// For cross-correlation: the normalised correlation at the chosen shift (1 = perfect).
@@ -124,11 +146,93 @@ pub struct ImpactRange {
     pub dynamic_ratio: [f64; 2],
 }
 
+/// How a falsification chose its comparison points. Written as its name:
+/// `EIP (joint entropy)` (then ` + envelope`, ` + departures` when they were used),
+/// `random PIP subsets (mean of N)` or `equidistant points`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(into = "String", try_from = "String")]
+pub enum Method {
+    /// The method: the joint-entropy points (EIP), with the envelope points and the
+    /// departure rule when they were used.
+    Eip {
+        /// Envelope points were reported.
+        envelope: bool,
+        /// Falsified at the departures too.
+        departures: bool,
+    },
+    /// The baseline of random PIP subsets of the method's size (their mean).
+    RandomSubsets {
+        /// Subsets drawn.
+        subsets: usize,
+    },
+    /// The baseline of equidistant points.
+    Equidistant,
+}
+
+impl fmt::Display for Method {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let text = match *self {
+            Method::Eip {
+                envelope,
+                departures,
+            } => format!(
+                "EIP (joint entropy){}{}",
+                if envelope { " + envelope" } else { "" },
+                if departures { " + departures" } else { "" }
+            ),
+            Method::RandomSubsets { subsets } => {
+                format!("random PIP subsets (mean of {subsets})")
+            }
+            Method::Equidistant => "equidistant points".to_string(),
+        };
+        f.pad(&text)
+    }
+}
+
+impl From<Method> for String {
+    fn from(m: Method) -> String {
+        m.to_string()
+    }
+}
+
+impl TryFrom<String> for Method {
+    type Error = String;
+
+    fn try_from(s: String) -> Result<Method, String> {
+        if let Some(rest) = s.strip_prefix("EIP (joint entropy)") {
+            let (envelope, rest) = match rest.strip_prefix(" + envelope") {
+                Some(r) => (true, r),
+                None => (false, rest),
+            };
+            let (departures, rest) = match rest.strip_prefix(" + departures") {
+                Some(r) => (true, r),
+                None => (false, rest),
+            };
+            if rest.is_empty() {
+                return Ok(Method::Eip {
+                    envelope,
+                    departures,
+                });
+            }
+        } else if let Some(n) = s
+            .strip_prefix("random PIP subsets (mean of ")
+            .and_then(|r| r.strip_suffix(')'))
+        {
+            if let Ok(subsets) = n.parse() {
+                return Ok(Method::RandomSubsets { subsets });
+            }
+        } else if s == "equidistant points" {
+            return Ok(Method::Equidistant);
+        }
+        Err(format!("unknown falsification method `{s}`"))
+    }
+}
+
 /// Result of falsification with one set of comparison points.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Falsification {
-    /// Method name (`"EIP (joint entropy)"`, `"equidistant"`, …).
-    pub method: String,
+    /// How its points were chosen.
+    pub method: Method,
     /// Comparison points (indices into [`Identification::candidates`], or for equidistant
     /// points their own list in `points_detail`).
     pub points: usize,
@@ -189,7 +293,7 @@ pub struct Identification {
     /// The measured series used, on the bank's windows.
     pub series: Vec<MeasuredSeries>,
     /// PIP distance measure (`vertical`, `perpendicular`, `euclidean`).
-    pub pip_distance: String,
+    pub pip_distance: super::pip::PipDistance,
     /// PIPs per series.
     pub pips_per_series: usize,
     /// All candidate points (PIPs of all series).
@@ -244,4 +348,56 @@ pub struct Identification {
     /// The refined answer (`identify --refine`), beside the bank-only one above.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub refinement: Option<super::refine::Refinement>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The methods are written as they always were, and read back.
+    #[test]
+    fn methods_are_written_by_their_names() {
+        for (m, name) in [
+            (
+                Method::Eip {
+                    envelope: false,
+                    departures: false,
+                },
+                "EIP (joint entropy)",
+            ),
+            (
+                Method::Eip {
+                    envelope: true,
+                    departures: true,
+                },
+                "EIP (joint entropy) + envelope + departures",
+            ),
+            (
+                Method::Eip {
+                    envelope: false,
+                    departures: true,
+                },
+                "EIP (joint entropy) + departures",
+            ),
+            (
+                Method::RandomSubsets { subsets: 2000 },
+                "random PIP subsets (mean of 2000)",
+            ),
+            (Method::Equidistant, "equidistant points"),
+        ] {
+            let json = serde_json::to_string(&m).unwrap();
+            assert_eq!(json, format!("\"{name}\""));
+            assert_eq!(serde_json::from_str::<Method>(&json).unwrap(), m);
+        }
+        for bad in [
+            "\"EIP (joint entropy) + more\"",
+            "\"equidistant\"",
+            "\"random PIP subsets (mean of x)\"",
+        ] {
+            let e = serde_json::from_str::<Method>(bad).unwrap_err().to_string();
+            assert!(e.contains("unknown falsification method"), "{e}");
+        }
+        let a = serde_json::to_string(&AlignmentMethod::CrossCorrelation).unwrap();
+        assert_eq!(a, "\"cross-correlation\"");
+    }
 }

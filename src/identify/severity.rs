@@ -12,6 +12,42 @@ use crate::model::calibration::{IdentificationParams, MaintenanceRule};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
+/// A wheel's flat verdict in a pass. Serialises (JSON, CSV) as `no`, `yes`, `unknown` or
+/// `not seen`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum FlatVerdict {
+    /// No flat: the pass sees this wheel and no flat on it.
+    #[serde(rename = "no")]
+    No,
+    /// A flat, sized.
+    #[serde(rename = "yes")]
+    Yes,
+    /// The model class is refuted for this bogie: something the model lacks is there.
+    #[serde(rename = "unknown")]
+    Unknown,
+    /// No flat detected, but these sensors cannot see this wheel's flats at this pass.
+    #[serde(rename = "not seen")]
+    NotSeen,
+}
+
+impl FlatVerdict {
+    /// The name files and people use: `no`, `yes`, `unknown` or `not seen`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            FlatVerdict::No => "no",
+            FlatVerdict::Yes => "yes",
+            FlatVerdict::Unknown => "unknown",
+            FlatVerdict::NotSeen => "not seen",
+        }
+    }
+}
+
+impl fmt::Display for FlatVerdict {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.pad(self.as_str())
+    }
+}
+
 /// How urgent a wheel is, ordered from harmless to urgent. Serialises (JSON, CSV) as its
 /// lower-case name: `none`, `monitor`, `inspect`, `urgent`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
@@ -72,18 +108,20 @@ impl Severity {
         }
     }
 
-    /// One wheel of the train table, from its `flat` verdict (`no`, `yes` or `unknown`) and
-    /// the L0 range of its flat: `none` without a flat, the L0 rule with one, `inspect` when
-    /// the model is refuted (something the model lacks is on the wheel or the track).
+    /// One wheel of the train table, from its flat verdict and the L0 range of its flat:
+    /// `none` without a flat, the L0 rule with one, `inspect` when the model is refuted
+    /// (something the model lacks is on the wheel or the track) or the wheel is not seen.
     pub fn of_wheel(
-        flat: &str,
+        flat: FlatVerdict,
         l0_mm: Option<[f64; 2]>,
         urgent_l0_mm: f64,
         inspect_l0_mm: f64,
     ) -> Severity {
         match (flat, l0_mm) {
-            ("no", _) => Severity::None,
-            ("yes", Some([_, hi])) => Severity::of_upper_l0(hi, urgent_l0_mm, inspect_l0_mm),
+            (FlatVerdict::No, _) => Severity::None,
+            (FlatVerdict::Yes, Some([_, hi])) => {
+                Severity::of_upper_l0(hi, urgent_l0_mm, inspect_l0_mm)
+            }
             _ => Severity::Inspect,
         }
     }
@@ -316,11 +354,12 @@ mod tests {
     fn severity_follows_the_stated_rule() {
         // Moved from `train::severity`, which is now `Severity::of_wheel`.
         let severity = Severity::of_wheel;
-        assert_eq!(severity("no", None, 40.0, 25.0), "none");
-        assert_eq!(severity("yes", Some([30.0, 41.0]), 40.0, 25.0), "urgent");
-        assert_eq!(severity("yes", Some([20.0, 30.0]), 40.0, 25.0), "inspect");
-        assert_eq!(severity("yes", Some([18.0, 24.0]), 40.0, 25.0), "monitor");
-        assert_eq!(severity("unknown", None, 40.0, 25.0), "inspect");
+        let (no, yes) = (FlatVerdict::No, FlatVerdict::Yes);
+        assert_eq!(severity(no, None, 40.0, 25.0), "none");
+        assert_eq!(severity(yes, Some([30.0, 41.0]), 40.0, 25.0), "urgent");
+        assert_eq!(severity(yes, Some([20.0, 30.0]), 40.0, 25.0), "inspect");
+        assert_eq!(severity(yes, Some([18.0, 24.0]), 40.0, 25.0), "monitor");
+        assert_eq!(severity(FlatVerdict::Unknown, None, 40.0, 25.0), "inspect");
     }
 
     #[test]

@@ -47,14 +47,23 @@ pub fn comparison_table(id: &Identification, truth: Option<&Truth>) -> String {
         .falsifications
         .iter()
         .take(1)
-        .map(|f| (f.method.clone(), f.points, f.cms_count, f.ranges.clone()))
+        .map(|f| {
+            (
+                f.method.to_string(),
+                f.points,
+                f.cms_count,
+                f.ranges.clone(),
+            )
+        })
         .chain(refined)
-        .chain(
-            id.falsifications
-                .iter()
-                .skip(1)
-                .map(|f| (f.method.clone(), f.points, f.cms_count, f.ranges.clone())),
-        )
+        .chain(id.falsifications.iter().skip(1).map(|f| {
+            (
+                f.method.to_string(),
+                f.points,
+                f.cms_count,
+                f.ranges.clone(),
+            )
+        }))
         .collect();
     for (method, points, cms_count, ranges) in &rows {
         s += &format!(

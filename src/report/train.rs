@@ -183,7 +183,7 @@ pub fn table_html(r: &TrainResult) -> String {
             w.car,
             esc(&bogie_text(w)),
             w.wheel.name(),
-            esc(&w.flat),
+            esc(w.flat.as_str()),
             w.cms_count,
             esc(&severity_text(w))
         );

@@ -18,8 +18,8 @@
 use crate::bank::Bank;
 use crate::identify::refine::{bank_simulator, refine, RefineSettings};
 use crate::identify::{
-    Detection, Extras, Identification, Identifier, IdentifyError, Measurement, Severity,
-    SeverityRange,
+    Detection, Extras, FlatVerdict, Identification, Identifier, IdentifyError, Measurement,
+    Severity, SeverityRange,
 };
 use crate::model::{CheckedCalibration, Simulator, WheelPosition};
 use serde::{Deserialize, Serialize};
@@ -156,9 +156,10 @@ pub struct WheelRow {
     pub bogie: usize,
     /// Leading or trailing wheel of the (half) bogie.
     pub wheel: WheelPosition,
-    /// `no`, `yes`, `unknown` (the model class is refuted for this bogie) or `not seen` (no
-    /// flat detected, but these sensors cannot see this wheel's flats at this pass).
-    pub flat: String,
+    /// The flat verdict: `no`, `yes`, `unknown` (the model class is refuted for this bogie)
+    /// or `not seen` (no flat detected, but these sensors cannot see this wheel's flats at
+    /// this pass).
+    pub flat: FlatVerdict,
     /// L0 range of the flat (mm), when there is one.
     pub l0_mm: Option<[f64; 2]>,
     /// Surviving instances with the flat on this wheel.
@@ -303,32 +304,37 @@ pub fn identify_train(
                         .any(|w| w.wheel == wheel && w.l0_mm.is_none())
             });
             let (flat, l0, count, by_rule) = match &identification {
-                None if unseen => ("not seen", None, 0, None),
-                None => ("no", None, 0, None),
+                None if unseen => (FlatVerdict::NotSeen, None, 0, None),
+                None => (FlatVerdict::No, None, 0, None),
                 // Smaller than the population: on a wheel the population puts flats on.
                 Some(id) if id.below_population => {
                     match id.population.flat_wheels.contains(&wheel) {
-                        true => ("yes", Some([0.0, id.population.l0_mm[0]]), 0, None),
-                        false => ("no", None, 0, None),
+                        true => (
+                            FlatVerdict::Yes,
+                            Some([0.0, id.population.l0_mm[0]]),
+                            0,
+                            None,
+                        ),
+                        false => (FlatVerdict::No, None, 0, None),
                     }
                 }
-                Some(id) if id.cms.is_empty() => ("unknown", None, 0, None),
+                Some(id) if id.cms.is_empty() => (FlatVerdict::Unknown, None, 0, None),
                 Some(id) => match id.wheel_ranges.iter().find(|w| w.wheel == wheel) {
                     Some(w) => (
-                        "yes",
+                        FlatVerdict::Yes,
                         Some(w.ranges.l0_mm),
                         w.cms_count,
                         Some(SeverityRange::of_ranges(&w.ranges, s)),
                     ),
-                    None => ("no", None, 0, None),
+                    None => (FlatVerdict::No, None, 0, None),
                 },
             };
             let classes = match (flat, by_rule, l0) {
-                ("yes", Some(rule), _) => Some(rule),
-                ("yes", None, Some(l0)) => {
+                (FlatVerdict::Yes, Some(rule), _) => Some(rule),
+                (FlatVerdict::Yes, None, Some(l0)) => {
                     Some(SeverityRange::of_l0(l0, s.urgent_l0_mm, s.inspect_l0_mm))
                 }
-                ("not seen", ..) => None,
+                (FlatVerdict::NotSeen, ..) => None,
                 _ => Some(SeverityRange::single(Severity::of_wheel(
                     flat,
                     l0,
@@ -340,7 +346,7 @@ pub fn identify_train(
                 car: b / 2 + 1,
                 bogie: b + 1,
                 wheel,
-                flat: flat.into(),
+                flat,
                 l0_mm: l0,
                 cms_count: count,
                 severity: classes.map_or_else(
@@ -405,7 +411,7 @@ pub fn refine_wheels(
         for row in result
             .wheels
             .iter_mut()
-            .filter(|w| w.bogie == bogie.bogie && w.flat == "yes")
+            .filter(|w| w.bogie == bogie.bogie && w.flat == FlatVerdict::Yes)
         {
             let mut one = id.clone();
             one.cms.retain(|c| c.flat_wheel == row.wheel);

@@ -3,7 +3,7 @@
 //! answer is resolved where the measurement is informative instead of at the bank's spacing.
 //!
 //! Why: with direct simulation and no cell widening, the flats a measurement cannot rule out
-//! span a few millimetres of L0 (`examples/oracle_study`), while the bank's cells are ~14 mm of
+//! span a few millimetres of L0 (`studies/src/bin/oracle_study`), while the bank's cells are ~14 mm of
 //! L and ~0.13 mm of d wide (docs/identification.md). The bank-only answer is the union of its
 //! surviving cells; refinement samples those cells more densely, in rounds:
 //!
@@ -25,22 +25,14 @@
 //! The budget is a number of simulations (deterministic: same inputs, same answer on any
 //! thread count), not a time; 640 simulations take about 1.2 s on 2 cores.
 //!
-//! [`RefineMode::Witnesses`] is a measuring instrument, not offered by the CLI: it searches
-//! every bank cell for flats that pass every point with *no* widening (κ = 0). Those are
-//! flats the measurement cannot rule out at these points, so the largest L0 among them is a
-//! floor under the upper bound of any answer that keeps every such flat (docs/performance.md,
-//! "Refinement"). As an answer it narrows most but loses the truth too often (coverage 0.78–0.83
-//! on 100 cases).
-//!
-//! [`RefineSettings::whole_record`] judges the last round at every sample of every sensor
-//! window instead ([`WholeRecord`]): a studied variant (severity right 0.73 against 0.63), not
-//! the CLI's, as it loses the truth on the finer-model cases (coverage 0.80–0.87, plain or
-//! smoothed), although the truth's own simulation passes there in 28–29 of 30 cases: its local
-//! cells do not resolve the thin region of flats that pass every sample (docs/severity.md).
+//! Two studied variants were taken out of the product in issue 34 (their figures, in
+//! docs/severity.md and docs/decisions.md, were measured at commit 1e7f4f2 with
+//! `studies/src/bin/refine_study`): a witness search (flats that pass every point with no widening;
+//! coverage 0.78–0.83 on 100 cases) and a last round judged at every sample of the record
+//! (severity right 0.73 against 0.63, coverage 0.80–0.87 on the finer-model cases).
 
 mod local;
 mod points;
-mod witness;
 
 use super::falsify::{falsify, largest_step, Resolution};
 use super::result::{Identification, ParamRanges};
@@ -49,7 +41,6 @@ use crate::model::{Simulator, WheelPosition};
 use local::{local_cells, ranges_of, sample_in_cells};
 use points::{simulate_at, Comparison};
 use serde::{Deserialize, Serialize};
-use witness::witnesses;
 
 /// The most simulations one refinement may ask for (a resource bound: 20,000 take about
 /// 40 s on 2 cores).
@@ -66,44 +57,11 @@ pub struct RefineSettings {
     pub seed: u64,
     /// κ of the local cells (`None`: the identification's `bank_resolution`).
     pub kappa: Option<f64>,
-    /// How the refined answer is formed.
-    pub mode: RefineMode,
-    /// `Some(how)`: the last round judges the simulated flats at every sample of every sensor
-    /// window, Šídák over all of them, instead of at the bank-only answer's points (a studied
-    /// variant).
-    pub whole_record: Option<WholeRecord>,
     /// Each round, the seeds whose cells reach deepest or shallowest in d (an eighth of them
     /// at each end, at least one) are sampled this many times as often as the others: the
     /// answer's L0 bounds are decided there (1: an even share; 1–16; default 4, measured in
     /// docs/performance.md, "Refinement").
     pub ends_weight: usize,
-}
-
-/// How a whole-record comparison reads every sample.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum WholeRecord {
-    /// The sample itself.
-    Samples,
-    /// The maximum and the minimum over ± this many samples (1–50).
-    Extremes(usize),
-    /// The sample and its two neighbours weighted ¼, ½, ¼, in the measurement and the
-    /// predictions alike (quarters the rail's ringing near 800 Hz, where the model's mesh
-    /// matters most).
-    Smoothed,
-}
-
-/// How the refined answer is formed.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum RefineMode {
-    /// Cells of the local population, falsified with κ as the bank's (round after round).
-    Cells,
-    /// Witnesses: flats that pass every point with no widening (κ = 0), sampled around the
-    /// bank's survivors and then around the witnesses found; the answer is the hull of the
-    /// witnesses, widened by `margin` × their local cells.
-    Witnesses {
-        /// Share of each witness's local cell added around it (0: the hull of the witnesses).
-        margin: f64,
-    },
 }
 
 impl Default for RefineSettings {
@@ -113,8 +71,6 @@ impl Default for RefineSettings {
             rounds: 2,
             seed: 1,
             kappa: None,
-            mode: RefineMode::Cells,
-            whole_record: None,
             ends_weight: 4,
         }
     }
@@ -136,20 +92,6 @@ impl RefineSettings {
             return Err(IdentifyError::Invalid(format!(
                 "refine kappa = {k}: must be 0–10"
             )));
-        }
-        if let RefineMode::Witnesses { margin } = self.mode {
-            if !(margin.is_finite() && (0.0..=10.0).contains(&margin)) {
-                return Err(IdentifyError::Invalid(format!(
-                    "refine witness margin = {margin}: must be 0–10"
-                )));
-            }
-        }
-        if let Some(WholeRecord::Extremes(w)) = self.whole_record {
-            if !(1..=50).contains(&w) {
-                return Err(IdentifyError::Invalid(format!(
-                    "refine whole-record half-width = {w} samples: must be 1–50"
-                )));
-            }
         }
         if !(1..=16).contains(&self.ends_weight) {
             return Err(IdentifyError::Invalid(format!(
@@ -260,13 +202,6 @@ pub fn refine(
         .unwrap_or(identifier.settings().bank_resolution);
     let cmp = Comparison::of(identifier, id);
     let method_points = cmp.at.len();
-    // With the whole record, every simulated flat is read at every sample too (after the
-    // method's points); the bank's seeds carry the method's points only.
-    let cmp = if let (Some(w), RefineMode::Cells) = (settings.whole_record, settings.mode) {
-        cmp.chain(Comparison::whole_record(identifier, id, w))
-    } else {
-        cmp
-    };
 
     // Seeds: the bank's survivors with their cells and their stored predictions. With a
     // discretisation allowance each point is read over the samples its step spans (a sample
@@ -327,12 +262,6 @@ pub fn refine(
         return Ok(finish(out, t0, identifier));
     }
     let mut state = settings.seed ^ 0x5DEE_CE66_D1CE_4E5B;
-    if let RefineMode::Witnesses { margin } = settings.mode {
-        witnesses(
-            sim, &cmp, seeds, settings, margin, &mut state, &mut out, pop, radius,
-        )?;
-        return Ok(finish(out, t0, identifier));
-    }
     for round in 0..settings.rounds {
         let budget = settings.simulations / settings.rounds
             + usize::from(round < settings.simulations % settings.rounds);
@@ -355,45 +284,29 @@ pub fn refine(
                 share: identifier.discretisation_share(peak_kn),
             },
         ));
-        // The last round with the whole record: the simulated flats only (a bank seed has
-        // its method points, not its record), judged at every sample.
-        let final_whole = settings.whole_record.is_some() && round + 1 == settings.rounds;
-        if final_whole {
-            members.retain(|m| m.g.len() == cmp.at.len());
-        }
         let cells = local_cells(&members);
         for (i, m) in members.iter_mut().enumerate() {
             m.half = cells.half_extent(i);
         }
-        let range = if final_whole {
-            method_points..cmp.at.len()
-        } else {
-            0..method_points
-        };
-        let columns: Vec<Vec<f32>> = (0..cmp.at.len())
-            .map(|p| {
-                if range.contains(&p) {
-                    members.iter().map(|m| m.g[p]).collect()
-                } else {
-                    Vec::new()
-                }
-            })
+        let columns: Vec<Vec<f32>> = (0..method_points)
+            .map(|p| members.iter().map(|m| m.g[p]).collect())
             .collect();
-        let steps: Vec<Vec<f32>> = (0..cmp.at.len())
+        let steps: Vec<Vec<f32>> = (0..method_points)
             .map(|p| {
-                if range.contains(&p) {
-                    members
-                        .iter()
-                        .map(|m| m.steps.get(p).copied().unwrap_or(0.0))
-                        .collect()
-                } else {
-                    Vec::new()
-                }
+                members
+                    .iter()
+                    .map(|m| m.steps.get(p).copied().unwrap_or(0.0))
+                    .collect()
             })
             .collect();
         let shares: Vec<f32> = members.iter().map(|m| m.share).collect();
         let any = shares.iter().any(|&s| s > 0.0);
-        let points = cmp.points(&columns, range, &steps, any.then_some(shares.as_slice()));
+        let points = cmp.points(
+            &columns,
+            0..method_points,
+            &steps,
+            any.then_some(shares.as_slice()),
+        );
         let alive = falsify(
             &points,
             (kappa > 0.0).then_some(Resolution {

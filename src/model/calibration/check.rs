@@ -373,13 +373,6 @@ impl Calibration {
             3.0,
             1000.0,
         )?;
-        if !["vertical", "perpendicular", "euclidean"].contains(&id.pip_distance.as_str()) {
-            return Err(invalid(
-                "identification.pip_distance",
-                format!("{:?}", id.pip_distance),
-                "one of \"vertical\", \"perpendicular\", \"euclidean\"",
-            ));
-        }
         non_negative("identification.alpha_fraction", id.alpha_fraction)?;
         non_negative("identification.bank_resolution", id.bank_resolution)?;
         within(

@@ -21,7 +21,7 @@ impl Default for IdentificationParams {
         IdentificationParams {
             phi: 0.95,
             pips_per_series: 30,
-            pip_distance: "vertical".into(),
+            pip_distance: super::PipDistance::Vertical,
             alpha_fraction: 0.01,
             monte_carlo_samples: 20_000,
             random_subsets: 2000,

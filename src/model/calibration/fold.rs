@@ -127,7 +127,7 @@ impl Calibration {
         }
         // A shift must be a whole number of samples: an impact spike lasts a few samples, and a
         // window a fraction of a sample off differs from the shifted strike by most of its
-        // peak (60 kN for a 20 mm × 1 mm flat at 47.5 km/h, `examples/fold_error.rs`).
+        // peak (60 kN for a 20 mm × 1 mm flat at 47.5 km/h, `studies/src/bin/fold_error.rs`).
         let per_bay = self.samples_per_bay();
         if !self.bay_is_whole_samples() {
             let at = |n: f64| self.track.sleeper_spacing_m * self.output.sample_rate_hz / n * 3.6;

@@ -182,7 +182,7 @@ pub const DISCRETISATION_DYNAMIC_RATIO: f64 = 1.9;
 
 /// The default of [`IdentificationParams::discretisation_fraction`]: the 90th percentile of
 /// |bank − converged| over the bank's step at the samples of flats that lose contact
-/// (0.46 over 600 flats, `examples/discretisation.rs`), rounded up.
+/// (0.46 over 600 flats, `studies/src/bin/discretisation.rs`), rounded up.
 pub const DISCRETISATION_FRACTION: f64 = 0.5;
 
 /// Parameter ranges of the model population (docs/model.md §5, paper Table 1).
@@ -272,6 +272,37 @@ pub enum MaintenanceRule {
     Impact,
 }
 
+/// How "far from the line" a perceptually important point is (paper §3.1). Written as
+/// `vertical`, `perpendicular` or `euclidean`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PipDistance {
+    /// Vertical distance `|y − ŷ(x)|` (the paper's choice for the second step).
+    Vertical,
+    /// Perpendicular distance to the line, with time and force each scaled to [0, 1] over the
+    /// series (the distance is otherwise unit-dependent).
+    Perpendicular,
+    /// Sum of the Euclidean distances to the two neighbouring PIPs, same scaling.
+    Euclidean,
+}
+
+impl PipDistance {
+    /// The name calibrations and results use.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PipDistance::Vertical => "vertical",
+            PipDistance::Perpendicular => "perpendicular",
+            PipDistance::Euclidean => "euclidean",
+        }
+    }
+}
+
+impl std::fmt::Display for PipDistance {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.pad(self.as_str())
+    }
+}
+
 /// Identification settings (paper §2–3, docs/model.md §7–8). Not part of a bank's identity.
 /// Keys left out take their defaults.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -281,8 +312,8 @@ pub struct IdentificationParams {
     pub phi: f64,
     /// Perceptually important points per series (paper: 30).
     pub pips_per_series: usize,
-    /// PIP distance: "vertical", "perpendicular" or "euclidean".
-    pub pip_distance: String,
+    /// PIP distance: `vertical`, `perpendicular` or `euclidean`.
+    pub pip_distance: PipDistance,
     /// Greedy joint-entropy selection stops when the gain is below `alpha_fraction·log2(N)`.
     pub alpha_fraction: f64,
     /// Monte Carlo samples of the combined uncertainty.

@@ -213,7 +213,11 @@ pub(super) fn render_html(
     writeln!(h, "<h2>Measurement and alignment</h2>")?;
     let a = &id.alignment;
     writeln!(h, "<table class=\"kv\">\n<tbody>")?;
-    writeln!(h, "<tr><th>Alignment</th><td>{}</td></tr>", e(&a.method))?;
+    writeln!(
+        h,
+        "<tr><th>Alignment</th><td>{}</td></tr>",
+        e(&a.method.to_string())
+    )?;
     writeln!(
         h,
         "<tr><th>Shift</th><td>{} ms (bank time = measurement time + shift)</td></tr>",
@@ -270,7 +274,7 @@ pub(super) fn render_html(
         h,
         "<tr><th>PIP</th><td>{} per series ({} distance), {} in all</td></tr>",
         id.pips_per_series,
-        e(&id.pip_distance),
+        e(id.pip_distance.as_str()),
         id.candidates.len()
     )?;
     let final_h = id
@@ -365,7 +369,7 @@ pub(super) fn render_html(
             h,
             "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{l0}</td>\
              <td class=\"num\">{l}</td><td class=\"num\">{d}</td></tr>",
-            e(&f.method),
+            e(&f.method.to_string()),
             f.points,
             f.cms_count
         )?;

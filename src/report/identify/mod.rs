@@ -36,7 +36,8 @@ mod detection;
 mod entropy;
 mod html;
 mod parallel;
-pub mod sample;
+#[cfg(test)]
+mod sample;
 mod series;
 mod subsets;
 #[cfg(test)]

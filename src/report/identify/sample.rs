@@ -4,7 +4,7 @@
 
 use crate::identify::result::{
     Alignment, CandidatePoint, EntropyCurve, Falsification, Identification, InstanceParams,
-    MeasuredSeries, ParamRanges, RandomSubsets,
+    MeasuredSeries, Method, ParamRanges, RandomSubsets,
 };
 use crate::report::canvas::min_max;
 
@@ -182,12 +182,12 @@ pub fn identification() -> Identification {
         bank_instances: 50_000,
         population,
         alignment: Alignment {
-            method: "cross-correlation".into(),
+            method: crate::identify::result::AlignmentMethod::CrossCorrelation,
             shift_s: 0.01234,
             correlation: Some(0.987),
         },
         series,
-        pip_distance: "vertical".into(),
+        pip_distance: crate::identify::pip::PipDistance::Vertical,
         pips_per_series: 10,
         candidates,
         eip,
@@ -214,13 +214,16 @@ pub fn identification() -> Identification {
         wheel_ranges: Vec::new(),
         falsifications: vec![
             Falsification {
-                method: "EIP (joint entropy)".into(),
+                method: Method::Eip {
+                    envelope: false,
+                    departures: false,
+                },
                 points: 6,
                 cms_count: 15,
                 ranges: hull_of(&cms),
             },
             Falsification {
-                method: "equidistant".into(),
+                method: Method::Equidistant,
                 points: 6,
                 cms_count: 412,
                 ranges: Some(ParamRanges {
@@ -234,7 +237,7 @@ pub fn identification() -> Identification {
                 }),
             },
             Falsification {
-                method: "all PIP".into(),
+                method: Method::RandomSubsets { subsets: 200 },
                 points: 20,
                 cms_count: 0,
                 ranges: None,

@@ -67,7 +67,11 @@ fn check_report(id: &Identification, svgs: usize) {
     );
     assert!(!html.contains("<script"));
     assert!(!html.contains("<?xml"));
-    for method in ["EIP (joint entropy)", "equidistant", "all PIP"] {
+    for method in [
+        "EIP (joint entropy)",
+        "equidistant points",
+        "random PIP subsets (mean of 200)",
+    ] {
         assert!(html.contains(method), "{method} missing");
     }
 }
@@ -299,5 +303,26 @@ fn html_shows_the_ranges_the_json_carries() {
             !html.contains(&recomputed),
             "the HTML shows the hull of the instances: {recomputed}"
         );
+    }
+}
+
+/// The report preview example (`examples/identify_preview.rs`) reads the sample identifications
+/// from `examples/data/`: they must be these, serialised (`WHEELFLAT_WRITE_FIXTURES=1` writes
+/// them again after the sample changes).
+#[test]
+fn the_preview_fixtures_are_the_sample() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data");
+    for (name, id) in [
+        ("preview.json", synthetic()),
+        ("preview-dense.json", super::sample::dense()),
+    ] {
+        let path = dir.join(name);
+        if std::env::var_os("WHEELFLAT_WRITE_FIXTURES").is_some() {
+            std::fs::create_dir_all(&dir).unwrap();
+            std::fs::write(&path, serde_json::to_string(&id).unwrap()).unwrap();
+        }
+        let text = std::fs::read_to_string(&path).unwrap();
+        let stored: Identification = serde_json::from_str(&text).unwrap();
+        assert_eq!(stored, id, "{}", path.display());
     }
 }

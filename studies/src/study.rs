@@ -1,0 +1,169 @@
+//! What the issue-11 study examples share: the arguments `BANK CASES SEED [same|finer|converged] …`,
+//! the bank, its calibration and the model the cases' measurements are simulated with.
+
+use crate::coverage::{self, severity_class};
+use std::path::Path;
+use wheelflat::bank::schema::SensorAxis;
+use wheelflat::bank::Bank;
+use wheelflat::identify::synth::Truth;
+use wheelflat::identify::{Extras, Identification, Identifier};
+use wheelflat::model::{CheckedCalibration, Flat, Record, Simulator};
+
+/// A study's bank and cases.
+pub struct Study {
+    /// The bank.
+    pub bank: Bank,
+    /// Its calibration.
+    pub cal: CheckedCalibration,
+    /// The model the measurements are simulated with (the bank's, or the finer one).
+    pub meas_cal: CheckedCalibration,
+    /// Seeded cases.
+    pub cases: usize,
+    /// Their seed.
+    pub seed: u64,
+    args: Vec<String>,
+}
+
+impl Study {
+    /// Reads `BANK CASES SEED [same|finer|converged]` from the command line; `usage` names the rest.
+    pub fn from_args(usage: &str) -> Study {
+        let args: Vec<String> = std::env::args().collect();
+        if args.len() < 4 {
+            panic!(
+                "usage: {} BANK CASES SEED [same|finer|converged] {usage}",
+                args[0]
+            );
+        }
+        let (bank, cal) = open_bank(&args[1]);
+        let finer = args.get(4).is_some_and(|s| s == "finer");
+        let converged = args.get(4).is_some_and(|s| s == "converged");
+        Study {
+            meas_cal: if converged {
+                coverage::converged_model(&cal)
+            } else {
+                coverage::measurement_model(&cal, finer)
+            },
+            cases: args[2].parse().expect("CASES"),
+            seed: args[3].parse().expect("SEED"),
+            bank,
+            cal,
+            args,
+        }
+    }
+
+    /// Argument `i` (1-based, as on the command line) parsed, or `default` when absent.
+    pub fn arg<T: std::str::FromStr>(&self, i: usize, default: T) -> T
+    where
+        T::Err: std::fmt::Debug,
+    {
+        self.args
+            .get(i)
+            .map_or(default, |s| s.parse().expect("a number"))
+    }
+
+    /// The bank-only identifier of the study's bank, its calibration and the measurement
+    /// model.
+    pub fn into_identifier(self) -> (Identifier, CheckedCalibration, CheckedCalibration) {
+        let id = Identifier::new(self.bank, self.cal.identification.clone()).unwrap();
+        (id, self.cal, self.meas_cal)
+    }
+
+    /// Whether argument `i` is `word`.
+    pub fn flag(&self, i: usize, word: &str) -> bool {
+        self.args.get(i).is_some_and(|s| s == word)
+    }
+}
+
+/// One seeded case identified by the bank-only method, with what a comparison at every sample
+/// needs.
+pub struct WholeCase {
+    /// The bank-only identification.
+    pub out: Identification,
+    /// The case's truth.
+    pub truth: Truth,
+    /// The truth's severity class.
+    pub class: usize,
+    /// Per-sample probability, Šídák over every sample of every identified window.
+    pub p: f64,
+    /// Each identified series' bank axis.
+    pub axes: Vec<usize>,
+}
+
+impl WholeCase {
+    /// Case `case` of `flat`, its measurement simulated with `meas_cal` (seed `seed + case`).
+    pub fn new(
+        id: &Identifier,
+        meas_cal: &CheckedCalibration,
+        flat: &Flat,
+        seed: u64,
+        case: usize,
+    ) -> WholeCase {
+        let cal = &id.bank().metadata().calibration;
+        let (insp, urg) = (
+            cal.identification.inspect_l0_mm,
+            cal.identification.urgent_l0_mm,
+        );
+        let (m, truth) = coverage::case(meas_cal, flat, seed, case).unwrap();
+        let out = id.identify(&m, None, Extras::NONE).unwrap();
+        let total: usize = out.series.iter().map(|s| s.values_kn.len()).sum();
+        let bank_axes = &id.bank().metadata().sensors;
+        WholeCase {
+            class: severity_class(truth.l0_mm, insp, urg),
+            p: out.phi.powf(1.0 / total.max(1) as f64),
+            axes: out
+                .series
+                .iter()
+                .map(|s| bank_axes.iter().position(|x| x.name == s.sensor).unwrap())
+                .collect(),
+            out,
+            truth,
+        }
+    }
+}
+
+/// The bank in `dir` and its stored calibration, checked.
+pub fn open_bank(dir: &str) -> (Bank, CheckedCalibration) {
+    let bank = Bank::open(Path::new(dir)).expect("bank");
+    let cal = bank
+        .metadata()
+        .calibration
+        .clone()
+        .check()
+        .expect("calibration");
+    (bank, cal)
+}
+
+/// `flat` simulated by `sim`: each bank axis's window in kN, rounded to f32 as the bank
+/// stores it; `None` when the simulation fails.
+pub fn windows_kn(sim: &Simulator, axes: &[SensorAxis], flat: &Flat) -> Option<Vec<Vec<f64>>> {
+    let resp = sim.run(Some(flat), Record::default()).ok()?;
+    Some(
+        axes.iter()
+            .enumerate()
+            .map(|(si, a)| {
+                resp.window(si, a.first_sample, a.samples)
+                    .iter()
+                    .map(|v| (v / 1e3) as f32 as f64)
+                    .collect()
+            })
+            .collect(),
+    )
+}
+
+/// Uniform [0, 1) from a 64-bit LCG step of `state` (the studies' own draws; the crate's
+/// generator is internal to it).
+pub fn uniform(state: &mut u64) -> f64 {
+    *state = state
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    (*state >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// splitmix64 → uniform in [0, 1) (the oracle and history studies' draws).
+pub fn splitmix_uniform(state: &mut u64) -> f64 {
+    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    let mut z = *state;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+}

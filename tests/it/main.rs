@@ -1,0 +1,30 @@
+//! wheelflat's integration tests, one binary (`cargo test --release`): each module tests one
+//! capability through the library or the `wheelflat` binary. The long acceptance suites are
+//! `#[ignore = "acceptance: …"]`; `cargo test --release -- --include-ignored` runs them too
+//! (README, "Tests").
+
+mod common;
+
+mod audit;
+mod bank;
+mod batch;
+mod bounds;
+mod cli;
+mod cli_bank;
+mod corruption;
+mod diagnose;
+mod effects;
+mod family;
+mod fuzz;
+mod history;
+mod identify;
+mod kill;
+mod layout;
+mod load;
+mod peer;
+mod physics;
+mod refine;
+mod site;
+mod train;
+mod watch;
+mod writers;
