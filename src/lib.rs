@@ -12,6 +12,7 @@
 //! The binary `wheelflat` (`src/main.rs` and its `cli` modules, not part of this library)
 //! drives it all; [`report`] words and plots the results.
 #![deny(clippy::float_cmp)]
+#![warn(unreachable_pub)]
 
 pub mod atomic;
 pub mod audit;

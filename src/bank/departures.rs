@@ -25,7 +25,7 @@ use rayon::prelude::*;
 use std::path::PathBuf;
 
 /// The table's file name inside a version directory.
-pub const DEPARTURES_FILE: &str = "departures.bin";
+pub(crate) const DEPARTURES_FILE: &str = "departures.bin";
 
 const MAGIC: &[u8; 8] = b"WFDEPAR1";
 
@@ -44,7 +44,7 @@ pub struct Departures {
 }
 
 /// The departures of every instance of `bank`, read column block by column block.
-pub fn compute(bank: &Bank) -> Result<Departures, BankError> {
+pub(crate) fn compute(bank: &Bank) -> Result<Departures, BankError> {
     let meta = bank.metadata();
     let n = bank.instances();
     let mut departure_kn = Vec::with_capacity(meta.sensors.len());
@@ -89,7 +89,7 @@ pub fn compute(bank: &Bank) -> Result<Departures, BankError> {
 }
 
 /// The file's bytes.
-pub fn encode(bank_id: &str, d: &Departures) -> Vec<u8> {
+pub(crate) fn encode(bank_id: &str, d: &Departures) -> Vec<u8> {
     let mut out = Vec::with_capacity(32 + bank_id.len() + 8 * d.instances * d.departure_kn.len());
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&(d.instances as u64).to_le_bytes());
@@ -108,7 +108,7 @@ pub fn encode(bank_id: &str, d: &Departures) -> Vec<u8> {
 
 /// Decodes and checks a file's bytes against the bank it must belong to; the reason when it
 /// does not.
-pub fn decode(
+pub(crate) fn decode(
     bytes: &[u8],
     bank_id: &str,
     instances: usize,
@@ -164,7 +164,7 @@ pub fn decode(
 
 /// Checks a stored table against the bank it lies in (`bank verify`): magic, CRC-32, bank id,
 /// instances, and a size that fits the sensor count it states.
-pub fn check(bytes: &[u8], bank_id: &str, instances: usize) -> Result<(), String> {
+pub(crate) fn check(bytes: &[u8], bank_id: &str, instances: usize) -> Result<(), String> {
     let sensors = bytes.get(16..20).map_or(0, |b| {
         u32::from_le_bytes(b.try_into().expect("4 bytes")) as usize
     });
@@ -172,14 +172,14 @@ pub fn check(bytes: &[u8], bank_id: &str, instances: usize) -> Result<(), String
 }
 
 /// Where a bank keeps its table.
-pub fn path(bank: &Bank) -> PathBuf {
+pub(crate) fn path(bank: &Bank) -> PathBuf {
     bank.dir().join(DEPARTURES_FILE)
 }
 
 /// The stored table when it passes its checks; else computed from the bank (about a second for
 /// 50,000 instances) and stored for the next process. A version directory that cannot be
 /// written only costs that second again.
-pub fn load_or_compute(bank: &Bank) -> Result<Departures, BankError> {
+pub(crate) fn load_or_compute(bank: &Bank) -> Result<Departures, BankError> {
     let meta = bank.metadata();
     let p = path(bank);
     if let Ok(bytes) = std::fs::read(&p) {

@@ -4,8 +4,9 @@
 use super::family::FAMILY_FILE;
 use super::family::{member_dir_name, member_grid, FamilyManifest, MemberEntry, SpeedBand};
 use super::family::{FAMILY_FORMAT, FAMILY_FORMAT_LOADS};
-use crate::bank::generate::{generate, GenerateObserver, GenerateOptions, Outcome};
+use crate::bank::generate::{generate, GenerateOptions, Outcome};
 use crate::bank::loads::LoadBand;
+use crate::bank::observer::GenerateObserver;
 use crate::bank::version::read_current;
 use crate::bank::BankError;
 use crate::model::calibration::VehicleParams;

@@ -19,6 +19,7 @@
 
 use super::layout::{Derived, Layout, EARLIER_MAGIC, LAYOUT_FILE};
 use super::neighbours::{cell_weights, in_metric_of, neighbour_graph, NEIGHBOURS_FILE};
+use super::observer::GenerateObserver;
 use super::population::Population;
 use super::schema::{
     bank_id, bank_metadata_text, calibration_sha256, open_shard, sensor_axes, sha256_hex,
@@ -48,26 +49,6 @@ pub struct GenerateOptions {
     pub format: StorageFormat,
     /// When false, missing shard files are an error instead of being simulated (`bank merge`).
     pub simulate_missing: bool,
-}
-
-/// Progress reports; the CLI attaches a progress bar or log lines.
-pub trait GenerateObserver: Sync {
-    /// Work is about to start: `to_simulate` instances in files still missing, `already_done`
-    /// instances found complete on disk.
-    fn started(&self, to_simulate: usize, already_done: usize);
-    /// One instance finished (called from worker threads).
-    fn instance_done(&self);
-    /// A shard file was written.
-    fn file_written(&self, name: &str);
-}
-
-/// An observer that reports nothing.
-pub struct Quiet;
-
-impl GenerateObserver for Quiet {
-    fn started(&self, _: usize, _: usize) {}
-    fn instance_done(&self) {}
-    fn file_written(&self, _: &str) {}
 }
 
 /// What a generate call did.

@@ -16,7 +16,7 @@
 //! - [`lock`]: one writer at a time per bank directory; [`prune`]: old versions removed.
 
 mod band;
-pub mod departures;
+pub(crate) mod departures;
 pub mod family;
 pub mod family_write;
 mod fold;
@@ -26,17 +26,19 @@ pub mod layout;
 pub mod loads;
 pub mod lock;
 pub mod neighbours;
+mod observer;
 pub mod population;
 pub mod prune;
-pub mod reader;
+pub(crate) mod reader;
 mod rows;
 pub mod schema;
-pub mod simulate;
-pub mod verify;
+pub(crate) mod simulate;
+pub(crate) mod verify;
 pub mod version;
-pub mod writer;
+pub(crate) mod writer;
 
-pub use generate::{generate, GenerateObserver, GenerateOptions, Outcome, Quiet};
+pub use generate::{generate, GenerateOptions, Outcome};
+pub use observer::{GenerateObserver, Quiet};
 pub use population::{FlatSample, Population};
 pub use reader::{Bank, Parameters, StoredInstance};
 pub use schema::{BankMetadata, Manifest};

@@ -17,7 +17,6 @@ use super::schema::{
 use super::version::{
     check_against_manifest, check_instance_order, open_manifest, read_layout, read_neighbours,
 };
-pub use super::version::{read_manifest, resolve_version};
 use super::BankError;
 use arrow_array::{Array, Float32Array, Float64Array, UInt32Array};
 use bytes::Bytes;

@@ -6,7 +6,7 @@
 //! on the rayon pool and returned in instance order. A lane's result does not depend on its batch-mates,
 //! so the rows (and the bank's bytes) are the same for every thread count and batch size.
 
-use super::generate::GenerateObserver;
+use super::observer::GenerateObserver;
 use super::population::Population;
 use super::schema::{SensorAxis, ShardInfo, PARAMETER_COLUMNS};
 use super::writer::InstanceRow;
@@ -15,7 +15,7 @@ use crate::model::{batch_key, CheckedCalibration, Flat, Record, Simulator, LANES
 use rayon::prelude::*;
 
 /// Simulates the rows of shard `info`, in instance order.
-pub fn simulate_rows(
+pub(crate) fn simulate_rows(
     sim: &Simulator,
     cal: &CheckedCalibration,
     population: &Population,

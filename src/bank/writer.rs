@@ -93,7 +93,7 @@ impl StorageFormat {
 
 /// One simulated instance, ready to store.
 #[derive(Debug, Clone, PartialEq)]
-pub struct InstanceRow {
+pub(crate) struct InstanceRow {
     /// Instance number.
     pub instance: u32,
     /// `PARAMETER_COLUMNS` values.
@@ -103,7 +103,7 @@ pub struct InstanceRow {
 }
 
 /// Writes `rows` as a shard file at `tmp` (the caller renames it into place).
-pub fn write_shard(
+pub(crate) fn write_shard(
     tmp: &Path,
     meta: &BankMetadata,
     rows: &[InstanceRow],

@@ -178,11 +178,8 @@ fn report_outcome(a: &GenerateArgs, dir: &Path, outcome: &Outcome, secs: f64, th
     }
 }
 
-/// `bank info`: metadata, size and parameter ranges.
+/// `bank info` of one bank: metadata, size and parameter ranges.
 pub(super) fn info(dir: &Path) -> Result<()> {
-    if super::family::is_family(dir) {
-        return super::family::info(dir);
-    }
     let b = Bank::open(dir).with_context(|| format!("cannot open bank {}", dir.display()))?;
     let m = b.metadata();
     let size = BankSize::of(&b);
@@ -231,11 +228,8 @@ pub(super) fn info(dir: &Path) -> Result<()> {
     Ok(())
 }
 
-/// `bank verify`: every file against the manifest; fails naming the bad files.
+/// `bank verify` of one bank: every file against the manifest; fails naming the bad files.
 pub(super) fn verify(dir: &Path) -> Result<()> {
-    if super::family::is_family(dir) {
-        return super::family::verify(dir);
-    }
     let (manifest, problems) =
         bank::verify(dir).with_context(|| format!("cannot verify bank {}", dir.display()))?;
     if problems.is_empty() {
@@ -260,9 +254,6 @@ pub(super) fn verify(dir: &Path) -> Result<()> {
 
 /// `bank prune`: removes old versions ([`bank::prune::prune`]) and says what it did and left.
 pub(super) fn prune(dir: &Path, keep: usize) -> Result<()> {
-    if super::family::is_family(dir) {
-        return super::family::prune(dir, keep);
-    }
     let p = bank::prune::prune(dir, keep)
         .with_context(|| format!("cannot prune bank {}", dir.display()))?;
     print_pruned(dir, &p);
@@ -305,9 +296,6 @@ pub(super) fn print_pruned(dir: &Path, p: &bank::prune::Pruned) {
 /// `bank audit`: re-simulates `sample` instances ([`BankAudit`]), prints each verdict and
 /// fails on drift.
 pub(super) fn audit(dir: &Path, sample: usize, calibration: Option<&Path>) -> Result<()> {
-    if super::family::is_family(dir) {
-        return super::family::audit(dir, sample, calibration);
-    }
     let b = Bank::open(dir).with_context(|| format!("cannot open bank {}", dir.display()))?;
     let against = match calibration {
         Some(p) => Some(load_calibration(Some(p))?),

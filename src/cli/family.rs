@@ -1,5 +1,5 @@
-//! `wheelflat bank info|verify|prune|audit` on a bank family: each member in turn, through the
-//! version `family.json` pins.
+//! `wheelflat bank info|verify|prune|audit` on a bank directory: a single bank ([`super::bank`]),
+//! or a bank family, each member in turn through the version `family.json` pins.
 
 use anyhow::{Context, Result};
 use std::path::Path;
@@ -7,7 +7,7 @@ use wheelflat::bank::family::{Family, FAMILY_FILE};
 use wheelflat::bank::info::BankSize;
 
 /// Whether `dir` is a bank family.
-pub(super) fn is_family(dir: &Path) -> bool {
+fn is_family(dir: &Path) -> bool {
     dir.join(FAMILY_FILE).is_file()
 }
 
@@ -33,8 +33,11 @@ fn member_words(f: &Family, m: &wheelflat::bank::family::Member) -> String {
     }
 }
 
-/// `bank info` of a family: the band, then one line per member.
+/// `bank info`: of a family, the band, then one line per member.
 pub(super) fn info(dir: &Path) -> Result<()> {
+    if !is_family(dir) {
+        return super::bank::info(dir);
+    }
     let f = open(dir)?;
     println!("bank family     {}", dir.display());
     println!("band            {} ({} members)", band(&f), f.members.len());
@@ -64,8 +67,11 @@ pub(super) fn info(dir: &Path) -> Result<()> {
     Ok(())
 }
 
-/// `bank verify` of a family: every member's pinned version in full.
+/// `bank verify`: of a family, every member's pinned version in full.
 pub(super) fn verify(dir: &Path) -> Result<()> {
+    if !is_family(dir) {
+        return super::bank::verify(dir);
+    }
     let f = open(dir)?;
     let mut bad = 0;
     for m in &f.members {
@@ -109,8 +115,11 @@ pub(super) fn verify(dir: &Path) -> Result<()> {
     Ok(())
 }
 
-/// `bank prune` of a family: every member, keeping the versions `family.json` pins.
+/// `bank prune`: of a family, every member, keeping the versions `family.json` pins.
 pub(super) fn prune(dir: &Path, keep: usize) -> Result<()> {
+    if !is_family(dir) {
+        return super::bank::prune(dir, keep);
+    }
     let f = open(dir)?;
     for m in &f.members {
         println!("member {}:", member_words(&f, m).trim());
@@ -125,9 +134,12 @@ pub(super) fn prune(dir: &Path, keep: usize) -> Result<()> {
     Ok(())
 }
 
-/// `bank audit` of a family: `sample` instances of every member (with `calibration`, that
+/// `bank audit`: of a family, `sample` instances of every member (with `calibration`, that
 /// calibration at each member's speed and load).
 pub(super) fn audit(dir: &Path, sample: usize, calibration: Option<&Path>) -> Result<()> {
+    if !is_family(dir) {
+        return super::bank::audit(dir, sample, calibration);
+    }
     let f = open(dir)?;
     let mut drifted = 0;
     for m in &f.members {

@@ -65,14 +65,14 @@ pub fn main() -> ExitCode {
         Command::Bank { command } => match command {
             BankCommand::Generate(a) => bank::generate(&a, true),
             BankCommand::Merge(a) => bank::generate(&a, false),
-            BankCommand::Info { dir } => bank::info(&dir),
-            BankCommand::Verify { dir } => bank::verify(&dir),
-            BankCommand::Prune { dir, keep } => bank::prune(&dir, keep as usize),
+            BankCommand::Info { dir } => family::info(&dir),
+            BankCommand::Verify { dir } => family::verify(&dir),
+            BankCommand::Prune { dir, keep } => family::prune(&dir, keep as usize),
             BankCommand::Audit {
                 dir,
                 sample,
                 calibration,
-            } => bank::audit(&dir, sample, calibration.as_deref()),
+            } => family::audit(&dir, sample, calibration.as_deref()),
         },
         Command::Synth(a) => synth::run(&a),
         Command::Identify(a) => identify::identify(&a),

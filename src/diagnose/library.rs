@@ -13,10 +13,10 @@ use crate::model::{Effect, WheelPosition};
 /// How far from the outermost measured sensors dips are sought (m): five bays of the default
 /// track, where a sensor's response to a load has fallen below 1 % (decay length
 /// `1/β ≈ 0.75 m` of the rail on its supports).
-pub const DIP_REACH_M: f64 = 3.5;
+pub(crate) const DIP_REACH_M: f64 = 3.5;
 
 /// Makes the effect of a family from its fitted parameters.
-pub type Build = Box<dyn Fn(&[f64]) -> Effect + Send + Sync>;
+pub(crate) type Build = Box<dyn Fn(&[f64]) -> Effect + Send + Sync>;
 
 /// A family of an effect kind: one discrete choice, its continuous parameters and seeds.
 pub struct Family {
@@ -342,7 +342,7 @@ fn clock_and_body_families(ctx: &Context, out: &mut Vec<Family>) {
 }
 
 /// The location of an effect for people (finer than the family's for fitted positions).
-pub fn location_of(family: &Family, e: &Effect) -> String {
+pub(crate) fn location_of(family: &Family, e: &Effect) -> String {
     match e {
         Effect::RailDip {
             position_m,
@@ -367,7 +367,7 @@ pub fn location_of(family: &Family, e: &Effect) -> String {
 }
 
 /// The sleeper of a sleeper effect.
-pub fn sleeper_of(e: &Effect) -> Option<usize> {
+pub(crate) fn sleeper_of(e: &Effect) -> Option<usize> {
     match e {
         Effect::VoidedSleeper { sleeper, .. }
         | Effect::PadStiffness { sleeper, .. }
@@ -380,8 +380,8 @@ pub fn sleeper_of(e: &Effect) -> Option<usize> {
 /// as fitted; `of_first`: the first effect's of a pair): `L0 = √(8·d·R_w)` over
 /// `d ± 2 sd`, the standard deviation scaled by `√(χ²/dof)` when the fit leaves more than
 /// the noise model (a standard inflation for misfit). None without a finite sd.
-pub fn second_flat_l0_mm(
-    candidate: &super::name::Candidate,
+pub(crate) fn second_flat_l0_mm(
+    candidate: &super::outcome::Candidate,
     of_first: bool,
     wheel_radius_m: f64,
     samples: usize,

@@ -12,14 +12,14 @@ use super::fit::{Fitted, FlatVector, Param};
 use rayon::prelude::*;
 
 /// Grid points per flat dimension (L and d).
-pub const GRID: usize = 5;
+pub(crate) const GRID: usize = 5;
 /// Step of the impact-position scan (m): within the ±10 mm basin measured.
-pub const XP_STEP_M: f64 = 0.01;
+pub(crate) const XP_STEP_M: f64 = 0.01;
 
 /// The restart (an apparent flat vector) that fits best under `chi2_of` (χ² of an apparent
 /// flat vector, the effects held), when it fits better than `chi2_now`; `start` gives c (and
 /// L, d for the position scan).
-pub fn flat_restart(
+pub(crate) fn flat_restart(
     flat_params: &[Param],
     start: FlatVector,
     chi2_now: f64,
@@ -59,7 +59,7 @@ pub fn flat_restart(
 
 /// The better of two fits `from` an apparent flat: from `start`, and from [`flat_restart`]'s
 /// restart when there is one.
-pub fn fit_with_restart(
+pub(crate) fn fit_with_restart(
     flat_params: &[Param],
     start: FlatVector,
     chi2_now: f64,

@@ -15,40 +15,19 @@ use super::name::{
     chi2_z, fit_held, fit_rms, flat_mm, kind_starts, same_place, Candidate, Estimate, Judge,
     ADEQUATE_Z, CLEARLY_BETTER,
 };
+pub(crate) use super::outcome::SecondStep;
 use super::restart::fit_with_restart;
 use crate::model::Effect;
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
 /// Kinds (by their best seed's χ²) whose starts are fitted as the second effect.
-pub const SECOND_KINDS: usize = 4;
+pub(crate) const SECOND_KINDS: usize = 4;
 /// Pairs refitted with the flat and both effects free.
-pub const PAIRS: usize = 2;
+pub(crate) const PAIRS: usize = 2;
 /// Levenberg–Marquardt Jacobians, second effect fitted with the first held.
 const MAX_ITER: usize = 10;
 /// Jacobians of a joint fit.
 const MAX_ITER_JOINT: usize = 20;
-
-/// The forward step's outcome.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct SecondStep {
-    /// The first effect (the best single one).
-    pub first: Candidate,
-    /// The pairs fitted, best BIC first; each entry describes the *second* effect, with the
-    /// pair's χ², BIC and fit quality.
-    pub ranking: Vec<Candidate>,
-    /// Both effects of the best pair at its joint fit (first, second).
-    pub effects: Vec<Effect>,
-    /// BIC of the first effect alone minus the best pair's.
-    pub evidence_over_first: f64,
-    /// BIC of the second effect alone (the best fit of its kind and place, with the flat)
-    /// minus the best pair's.
-    pub evidence_over_second: f64,
-    /// Whether the pair is named.
-    pub named: bool,
-    /// The verdict in words.
-    pub verdict: String,
-}
 
 /// The flat that, with both effects, strikes when `apparent` would without them.
 fn actual2(judge: &Judge, apparent: FlatVector, e1: &Effect, e2: &Effect) -> FlatVector {
@@ -57,7 +36,7 @@ fn actual2(judge: &Judge, apparent: FlatVector, e1: &Effect, e2: &Effect) -> Fla
 
 /// Forward selection from `first` (a candidate of [`super::name::name`]'s ranking); `singles`
 /// is that ranking (for the second effect's own BIC).
-pub fn forward(
+pub(crate) fn forward(
     problem: &Problem,
     judge: &Judge,
     families: &[Family],

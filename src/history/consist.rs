@@ -14,7 +14,11 @@ use crate::identify::IdentifyError;
 use std::path::Path;
 
 /// The bogie ids of a consist file, checked against the pass's `bogies`.
-pub fn read_consist(path: &Path, text: &str, bogies: usize) -> Result<Vec<String>, IdentifyError> {
+pub(crate) fn read_consist(
+    path: &Path,
+    text: &str,
+    bogies: usize,
+) -> Result<Vec<String>, IdentifyError> {
     let bad = |line: usize, message: String| IdentifyError::Measurement {
         path: path.to_path_buf(),
         line,

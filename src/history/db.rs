@@ -20,13 +20,13 @@ use rusqlite::{params, Connection, OpenFlags, OptionalExtension, TransactionBeha
 use std::path::{Path, PathBuf};
 
 /// `PRAGMA application_id` of a wheelflat results database: `WFLT`.
-pub const APPLICATION_ID: i32 = 0x5746_4C54;
+pub(crate) const APPLICATION_ID: i32 = 0x5746_4C54;
 /// The schema this wheelflat writes and reads.
-pub const SCHEMA_VERSION: i32 = 1;
+pub(crate) const SCHEMA_VERSION: i32 = 1;
 /// How long a reader or writer waits for another's lock (ms).
-pub const BUSY_TIMEOUT_MS: u64 = 10_000;
+pub(crate) const BUSY_TIMEOUT_MS: u64 = 10_000;
 /// The most passes one query returns (a window larger than this is cut to the newest).
-pub const MAX_WINDOW_PASSES: usize = 1000;
+pub(crate) const MAX_WINDOW_PASSES: usize = 1000;
 
 const SCHEMA: &str = "
 CREATE TABLE passes (
@@ -539,7 +539,7 @@ fn severity_of(s: &str) -> Option<Severity> {
 }
 
 /// RFC 3339 in UTC with milliseconds of Unix seconds.
-pub fn rfc3339(time_s: f64) -> String {
+pub(crate) fn rfc3339(time_s: f64) -> String {
     let ms = (time_s * 1e3).round() as i64;
     chrono::DateTime::from_timestamp_millis(ms)
         .map(|t| t.to_rfc3339_opts(chrono::SecondsFormat::Millis, true))
@@ -547,7 +547,7 @@ pub fn rfc3339(time_s: f64) -> String {
 }
 
 /// Now, in Unix seconds.
-pub fn now_s() -> f64 {
+pub(crate) fn now_s() -> f64 {
     std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0.0, |d| d.as_secs_f64())

@@ -1,8 +1,11 @@
 //! The grid the fusion marks each pass's hypotheses on: bins over the population's (L, d, c),
 //! plus "no flat" and "a flat below the population".
 
-use super::fuse::BINS;
 use super::record::{Claim, Space, WheelPass};
+
+/// Grid bins in L, d and c over the population (d finest: L0 is read from it; 0.01 mm of d is
+/// under 0.5 mm of L0 above 20 mm).
+pub(super) const BINS: [usize; 3] = [64, 90, 16];
 
 /// The grid over the passes' populations.
 #[derive(Debug, Clone, PartialEq)]

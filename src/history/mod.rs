@@ -3,11 +3,11 @@
 //! ([`fuse`]) — the flat's (L, d, c) must fit every pass, so the joint answer narrows as the
 //! passes come (docs/history.md).
 
-pub mod consist;
-pub mod db;
-pub mod fuse;
+pub(crate) mod consist;
+pub(crate) mod db;
+pub(crate) mod fuse;
 mod grid;
-pub mod record;
+pub(crate) mod record;
 
 pub use db::{Db, DbError, StoredPass, Window};
 pub use fuse::{fuse, Agreement, FusionRule, Joint};

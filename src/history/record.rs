@@ -327,7 +327,7 @@ fn refined_wheel(
 }
 
 /// The boxes as stored: little-endian f32, six a box.
-pub fn boxes_to_bytes(boxes: &[[f32; 6]]) -> Vec<u8> {
+pub(crate) fn boxes_to_bytes(boxes: &[[f32; 6]]) -> Vec<u8> {
     boxes
         .iter()
         .flat_map(|b| b.iter().flat_map(|v| v.to_le_bytes()))
@@ -336,7 +336,7 @@ pub fn boxes_to_bytes(boxes: &[[f32; 6]]) -> Vec<u8> {
 
 /// The boxes of stored bytes; `None` when the length is not a whole number of boxes or a
 /// box is not finite and ordered.
-pub fn boxes_from_bytes(bytes: &[u8]) -> Option<Vec<[f32; 6]>> {
+pub(crate) fn boxes_from_bytes(bytes: &[u8]) -> Option<Vec<[f32; 6]>> {
     if !bytes.len().is_multiple_of(24) {
         return None;
     }

@@ -17,7 +17,7 @@ const HUGE_PAGE: usize = 2 << 20;
 /// A growable buffer of plain values (`f32` predictions, `u16` bins) backed by an anonymous
 /// mapping.
 #[derive(Default)]
-pub struct HugeBuffer {
+pub(crate) struct HugeBuffer {
     map: Option<MmapMut>,
 }
 
@@ -34,7 +34,7 @@ impl HugeBuffer {
 
     /// The first `len` values (contents unspecified: the caller overwrites them), growing the
     /// mapping when it is too small.
-    pub fn values<T: bytemuck::Pod>(&mut self, len: usize) -> std::io::Result<&mut [T]> {
+    pub(crate) fn values<T: bytemuck::Pod>(&mut self, len: usize) -> std::io::Result<&mut [T]> {
         let bytes = len * std::mem::size_of::<T>();
         if self.capacity_bytes() < bytes {
             let map = MmapMut::map_anon(bytes.next_multiple_of(HUGE_PAGE))?;

@@ -40,17 +40,17 @@
 //! L0 from which every 1 mm L0 bin of the population has at least 90 % of its instances
 //! surely detected.
 
-use super::result::MeasuredSeries;
+use super::measurement::MeasuredSeries;
 use crate::bank::departures::Departures;
 use crate::model::calibration::{IdentificationParams, UncertaintyGroup, UncertaintyKind};
 use serde::{Deserialize, Serialize};
 
 /// The share of an L0 bin's instances that must be surely detected for the bin to count as
 /// within the detection limit.
-pub const LIMIT_SHARE: f64 = 0.9;
+pub(crate) const LIMIT_SHARE: f64 = 0.9;
 
 /// Width of the L0 bins of the detection limit (mm).
-pub const LIMIT_BIN_MM: f64 = 1.0;
+pub(crate) const LIMIT_BIN_MM: f64 = 1.0;
 
 /// The hard bounds the uncertainty table puts on a good wheel's record.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -209,7 +209,7 @@ impl Detection {
 }
 
 /// Tests one sensor's series `y` against the flat-free prediction `g` (same samples).
-pub fn test_sensor(
+pub(crate) fn test_sensor(
     sensor: &MeasuredSeries,
     template_kn: &[f32],
     bounds: &TableBounds,
@@ -260,7 +260,11 @@ pub fn test_sensor(
 }
 
 /// Tests every series (with its bank axis' flat-free prediction).
-pub fn detect(series: &[MeasuredSeries], templates: &[&[f32]], bounds: TableBounds) -> Detection {
+pub(crate) fn detect(
+    series: &[MeasuredSeries],
+    templates: &[&[f32]],
+    bounds: TableBounds,
+) -> Detection {
     let sensors: Vec<SensorTest> = series
         .iter()
         .zip(templates)
@@ -276,7 +280,7 @@ pub fn detect(series: &[MeasuredSeries], templates: &[&[f32]], bounds: TableBoun
 }
 
 /// Whether instance `i` would surely be detected by the sensors `axes` (bank axis indices).
-pub fn surely_detected(d: &Departures, axes: &[usize], i: usize, b: &TableBounds) -> bool {
+pub(crate) fn surely_detected(d: &Departures, axes: &[usize], i: usize, b: &TableBounds) -> bool {
     axes.iter().any(|&s| {
         let dep = f64::from(d.departure_kn[s][i]);
         let force = f64::from(d.flat_free_kn[s][i]);
@@ -291,7 +295,7 @@ pub fn surely_detected(d: &Departures, axes: &[usize], i: usize, b: &TableBounds
 /// flat-free force there, the truth's measured departure is at least
 /// `a·(1 − ε)·D − allowance_fraction·a·F − allowance_kn − T_max`; a measured departure below
 /// that rules the instance out. `sensors` pairs each sensor's bank axis with its test.
-pub fn falsified_by_departure(
+pub(crate) fn falsified_by_departure(
     d: &Departures,
     i: usize,
     cell: &[u32],
@@ -318,15 +322,22 @@ pub fn falsified_by_departure(
     })
 }
 
-/// The detection limit over the instances with L0 `l0_mm` ([`DetectionLimit`]).
-pub fn limit(d: &Departures, l0_mm: &[f64], axes: &[usize], b: &TableBounds) -> DetectionLimit {
+/// The detection limit over the instances with L0 `l0_mm` ([`DetectionLimit`]; the tests'
+/// reference for the identifier's own).
+#[cfg(test)]
+pub(crate) fn limit(
+    d: &Departures,
+    l0_mm: &[f64],
+    axes: &[usize],
+    b: &TableBounds,
+) -> DetectionLimit {
     limit_of(l0_mm, &detected(d, axes, b), |_| true)
 }
 
 /// Whether each instance would surely have been detected through the bank axes `axes`
 /// ([`surely_detected`]): computed once a pass, then binned by [`limit_of`] for the whole
 /// population and for each wheel.
-pub fn detected(d: &Departures, axes: &[usize], b: &TableBounds) -> Vec<bool> {
+pub(crate) fn detected(d: &Departures, axes: &[usize], b: &TableBounds) -> Vec<bool> {
     (0..d.instances)
         .map(|i| surely_detected(d, axes, i, b))
         .collect()
@@ -334,7 +345,11 @@ pub fn detected(d: &Departures, axes: &[usize], b: &TableBounds) -> Vec<bool> {
 
 /// [`limit`] over the instances `keep` accepts (e.g. one wheel's), from each instance's
 /// [`detected`].
-pub fn limit_of(l0_mm: &[f64], detected: &[bool], keep: impl Fn(usize) -> bool) -> DetectionLimit {
+pub(crate) fn limit_of(
+    l0_mm: &[f64],
+    detected: &[bool],
+    keep: impl Fn(usize) -> bool,
+) -> DetectionLimit {
     let kept = || l0_mm.iter().enumerate().filter(|&(i, _)| keep(i));
     let lowest = kept().map(|(_, &l)| l).fold(f64::INFINITY, f64::min);
     let highest = kept().map(|(_, &l)| l).fold(f64::NEG_INFINITY, f64::max);

@@ -20,12 +20,12 @@ use super::sparse::{GroupTally, Groups, Sparse};
 /// The most bins a point has: a prediction more than this many bin widths above the point's
 /// smallest shares the last bin. (The default uncertainty table gives a few hundred bins at
 /// most; the bound keeps the counting tables small whatever the settings.)
-pub const MAX_BINS: usize = 1 << 16;
+pub(crate) const MAX_BINS: usize = 1 << 16;
 
 /// The predictions at one point, as bin numbers, with their entropy. `B` holds the bins: an
 /// owned vector, or a slice of the identifier's bin buffer (see [`bin_into`]).
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct Binned<B = Vec<u16>> {
+pub(crate) struct Binned<B = Vec<u16>> {
     /// Bin of every instance (two bytes: the counting passes are memory-bound).
     pub bins: B,
     /// Number of bins.
@@ -39,7 +39,7 @@ pub struct Binned<B = Vec<u16>> {
 /// What binning finds besides the bins: their number, entropy and the instances outside the
 /// most populated one.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Histogram {
+pub(crate) struct Histogram {
     /// Number of bins.
     pub nbins: usize,
     /// Shannon entropy of the bins (bits).
@@ -48,8 +48,26 @@ pub struct Histogram {
     pub others: Sparse,
 }
 
-/// Bins `values` with width `width` starting at their minimum (at most [`MAX_BINS`] bins).
-pub fn bin_predictions(values: &[f32], width: f64) -> Binned {
+/// Shannon entropy (bits) of one binned point, from its bins (the tests' reference for the
+/// entropy the histograms carry).
+#[cfg(test)]
+pub(crate) fn entropy<B: AsRef<[u16]>>(b: &Binned<B>) -> f64 {
+    let bins = b.bins.as_ref();
+    let n = bins.len();
+    if n == 0 {
+        return 0.0;
+    }
+    let mut counts = vec![0u32; b.nbins];
+    for &x in bins {
+        counts[x as usize] += 1;
+    }
+    entropy_of_counts(&counts, n)
+}
+
+/// Bins `values` with width `width` starting at their minimum (at most [`MAX_BINS`] bins; the
+/// tests' reference for [`bin_into`]).
+#[cfg(test)]
+pub(crate) fn bin_predictions(values: &[f32], width: f64) -> Binned {
     let mut bins = vec![0; values.len()];
     let h = bin_into(values, width, &mut bins);
     Binned {
@@ -67,7 +85,7 @@ pub fn bin_predictions(values: &[f32], width: f64) -> Binned {
 /// range in eight lanes; the bin numbers; the counts in four interleaved tables, so that
 /// instances in the same bin one after the other do not wait on each other's increment.
 /// The result is the same, bit for bit, as binning one value at a time.
-pub fn bin_into(values: &[f32], width: f64, bins: &mut [u16]) -> Histogram {
+pub(crate) fn bin_into(values: &[f32], width: f64, bins: &mut [u16]) -> Histogram {
     assert_eq!(values.len(), bins.len(), "one bin per value");
     if values.is_empty() {
         return Histogram {
@@ -146,7 +164,7 @@ pub fn bin_into(values: &[f32], width: f64, bins: &mut [u16]) -> Histogram {
 
 /// Views a buffer of binned columns (`n` bins each, as [`bin_into`] wrote them) with their
 /// number, entropy and other instances, as [`greedy_joint_entropy`] reads them.
-pub fn binned_columns(bins: &[u16], n: usize, hists: Vec<Histogram>) -> Vec<Binned<&[u16]>> {
+pub(crate) fn binned_columns(bins: &[u16], n: usize, hists: Vec<Histogram>) -> Vec<Binned<&[u16]>> {
     bins.chunks(n.max(1))
         .zip(hists)
         .map(|(b, h)| Binned {
@@ -181,23 +199,9 @@ pub(crate) fn clog_table(n: usize) -> Vec<f64> {
         .collect()
 }
 
-/// Shannon entropy (bits) of one binned point, from its bins.
-pub fn entropy<B: AsRef<[u16]>>(b: &Binned<B>) -> f64 {
-    let bins = b.bins.as_ref();
-    let n = bins.len();
-    if n == 0 {
-        return 0.0;
-    }
-    let mut counts = vec![0u32; b.nbins];
-    for &x in bins {
-        counts[x as usize] += 1;
-    }
-    entropy_of_counts(&counts, n)
-}
-
 /// The outcome of a greedy selection.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Selection {
+pub(crate) struct Selection {
     /// Chosen candidates, in order.
     pub order: Vec<usize>,
     /// Joint entropy after each choice (bits).
@@ -214,7 +218,7 @@ pub struct Selection {
 /// gain — the same choice as re-evaluating all, at a fraction of the work. An evaluation visits
 /// the candidate's instances outside its most populated bin only, skipping those alone in
 /// their group.
-pub fn greedy_joint_entropy<B: AsRef<[u16]> + Sync>(
+pub(crate) fn greedy_joint_entropy<B: AsRef<[u16]> + Sync>(
     candidates: &[Binned<B>],
     allowed: &[usize],
     alpha_bits: f64,

@@ -18,7 +18,7 @@
 //! samples, so a feature holds the truth whenever its samples do.
 
 use super::falsify::Point;
-use super::result::MeasuredSeries;
+use super::measurement::MeasuredSeries;
 use super::uncertainty::{CombinedUncertainty, ThresholdCurve};
 use serde::{Deserialize, Serialize};
 

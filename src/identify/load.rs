@@ -22,7 +22,7 @@ use crate::model::calibration::{
 use serde::{Deserialize, Serialize};
 
 /// The central probability of [`LoadEstimate::interval_kn`].
-pub const LOAD_INTERVAL_PROBABILITY: f64 = 0.95;
+pub(crate) const LOAD_INTERVAL_PROBABILITY: f64 = 0.95;
 /// Monte Carlo draws of the level factor (seeded: the same interval every time).
 const DRAWS: usize = 20_000;
 
@@ -79,7 +79,7 @@ impl LoadEstimate {
 
 /// The table's level factor `(1 − E_model)·(1 + γ)`: its mean, and the central
 /// [`LOAD_INTERVAL_PROBABILITY`] interval of its mean over `sensors` independent sensors.
-pub fn level_factor(id: &IdentificationParams, sensors: usize) -> (f64, [f64; 2]) {
+pub(crate) fn level_factor(id: &IdentificationParams, sensors: usize) -> (f64, [f64; 2]) {
     let n = sensors.max(1);
     let mut state = 0x10AD_u64;
     let mut draws: Vec<f64> = (0..DRAWS)
@@ -125,7 +125,7 @@ pub fn level_factor(id: &IdentificationParams, sensors: usize) -> (f64, [f64; 2]
 /// The load of a pass from its detection step on a bank whose static wheel load is
 /// `bank_wheel_load_kn` (`vehicle`: the bank's, for the car-body mass), with the table's
 /// [`level_factor`] for the sensors used; `None` when no sensor had loaded samples to fit.
-pub fn estimate(
+pub(crate) fn estimate(
     detection: &Detection,
     bank_wheel_load_kn: f64,
     vehicle: &VehicleParams,
@@ -181,7 +181,7 @@ impl super::Identifier {
     pub(super) fn at_bank_load(
         &self,
         axes: &[usize],
-        series: &mut [super::result::MeasuredSeries],
+        series: &mut [super::measurement::MeasuredSeries],
         load: &LoadEstimate,
     ) {
         let meta = self.bank.metadata();

@@ -17,14 +17,15 @@
 use super::IdentifyError;
 use crate::bank::family::SPEED_TOLERANCE;
 use crate::bank::schema::SensorAxis;
+use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 /// The most sensor columns a measurement may have (a wayside site has a handful).
-pub const MAX_SENSOR_COLUMNS: usize = 64;
+pub(crate) const MAX_SENSOR_COLUMNS: usize = 64;
 
 /// The longest line a measurement may have (64 columns of numbers need about 2 kB).
-pub const MAX_LINE_BYTES: usize = 16 << 10;
+pub(crate) const MAX_LINE_BYTES: usize = 16 << 10;
 
 /// A checked measurement: finite samples, strictly increasing time on a uniform grid.
 #[derive(Debug, Clone, PartialEq)]
@@ -49,12 +50,12 @@ pub struct Measurement {
 }
 
 /// The longest bogie id (characters).
-pub const MAX_BOGIE_ID_CHARS: usize = 64;
+pub(crate) const MAX_BOGIE_ID_CHARS: usize = 64;
 
 /// Checks a bogie id: 1 to [`MAX_BOGIE_ID_CHARS`] characters out of letters, digits and
 /// `. _ - :` (no `/`: it separates the bogie from the wheel in a wheel id). The reason when
 /// not.
-pub fn check_bogie_id(id: &str) -> Result<&str, String> {
+pub(crate) fn check_bogie_id(id: &str) -> Result<&str, String> {
     if id.is_empty() || id.chars().count() > MAX_BOGIE_ID_CHARS {
         return Err(format!(
             "bogie id `{id}` must have 1 to {MAX_BOGIE_ID_CHARS} characters"
@@ -414,7 +415,7 @@ impl Measurement {
 /// Best shift (bank time = file time + shift) by normalised cross-correlation of the measured
 /// series with the bank's flat-free prediction, over whole-sample shifts that keep every window
 /// inside the record. `pairs` are (measurement sensor index, bank axis, flat-free template).
-pub fn cross_correlate(
+pub(crate) fn cross_correlate(
     m: &Measurement,
     pairs: &[(usize, &SensorAxis, &[f32])],
 ) -> Option<(f64, f64)> {
@@ -450,6 +451,19 @@ pub fn cross_correlate(
         }
     }
     best
+}
+
+/// One measured series, resampled onto a sensor's bank window.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MeasuredSeries {
+    /// Sensor name.
+    pub sensor: String,
+    /// Bank time of sample 0 (s).
+    pub t0_s: f64,
+    /// Sample rate (Hz).
+    pub sample_rate_hz: f64,
+    /// Measured force (kN) at the bank's sample times.
+    pub values_kn: Vec<f64>,
 }
 
 #[cfg(test)]

@@ -2,10 +2,14 @@
 //! first and last points, then repeatedly add the point farthest from the line joining its
 //! two neighbouring PIPs.
 
-pub use crate::model::calibration::PipDistance;
+pub(crate) use crate::model::calibration::PipDistance;
 
 /// Indices of the `j` most important points of `y`, in the order found (first two: the ends).
-pub fn perceptually_important_points(y: &[f64], j: usize, distance: PipDistance) -> Vec<usize> {
+pub(crate) fn perceptually_important_points(
+    y: &[f64],
+    j: usize,
+    distance: PipDistance,
+) -> Vec<usize> {
     let n = y.len();
     if n == 0 {
         return Vec::new();

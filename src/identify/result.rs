@@ -4,6 +4,8 @@ use crate::model::WheelPosition;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
+pub use super::measurement::MeasuredSeries;
+
 /// How the measurement was put on the bank's time axis. Written as `laser trigger` or
 /// `cross-correlation`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -34,19 +36,6 @@ pub struct Alignment {
     pub shift_s: f64,
     /// For cross-correlation: the normalised correlation at the chosen shift (1 = perfect).
     pub correlation: Option<f64>,
-}
-
-/// One measured series, resampled onto a sensor's bank window.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct MeasuredSeries {
-    /// Sensor name.
-    pub sensor: String,
-    /// Bank time of sample 0 (s).
-    pub t0_s: f64,
-    /// Sample rate (Hz).
-    pub sample_rate_hz: f64,
-    /// Measured force (kN) at the bank's sample times.
-    pub values_kn: Vec<f64>,
 }
 
 /// A candidate comparison point: a perceptually important point (PIP) of a measured series.
@@ -347,7 +336,48 @@ pub struct Identification {
     pub timings_ms: Vec<(String, f64)>,
     /// The refined answer (`identify --refine`), beside the bank-only one above.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub refinement: Option<super::refine::Refinement>,
+    pub refinement: Option<Refinement>,
+}
+
+/// One round of a refinement.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RefineRound {
+    /// Flats simulated in the round.
+    pub simulated: usize,
+    /// Seeds plus new flats that survive.
+    pub survivors: usize,
+    /// The round's answer (None when nothing survived).
+    pub ranges: Option<ParamRanges>,
+}
+
+/// The refined answer, reported beside the bank-only one.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Refinement {
+    /// The union of the last surviving round's cells.
+    pub ranges: Option<ParamRanges>,
+    /// Flats that stand for it (the last surviving round's survivors).
+    pub survivors: usize,
+    /// Simulations run.
+    pub simulations: usize,
+    /// Every round.
+    pub rounds: Vec<RefineRound>,
+    /// True when a round kept nothing and an earlier answer stands.
+    pub stopped_early: bool,
+    /// Wall time (ms).
+    pub time_ms: f64,
+    /// The refined answer in words.
+    pub summary: String,
+    /// The maintenance hint from the refined upper L0 bound (rule stated), or why the bank-only
+    /// answer's stands.
+    pub maintenance_hint: String,
+    /// The classes the refined answer spans (absent when the bank-only verdict stands).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub severity: Option<super::SeverityRange>,
+    /// The surviving flats' cells in (L, d, c) — `[L_lo, L_hi, d_lo, d_hi, c_lo, c_hi]`
+    /// (mm), clamped to the population — and their wheels, for the results database (not in
+    /// the JSON; empty when the bank-only answer stands).
+    #[serde(skip)]
+    pub cells: Vec<([f64; 6], WheelPosition)>,
 }
 
 #[cfg(test)]

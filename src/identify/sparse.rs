@@ -12,12 +12,12 @@
 //! where they are); [`GroupTally`] counts a candidate's other instances group by group.
 
 /// No group: the instance shares its tuple of bins with no other, so it can gain nothing.
-pub const NO_GROUP: u32 = u32::MAX;
+pub(crate) const NO_GROUP: u32 = u32::MAX;
 
 /// A point's instances outside its modal bin, bin by bin (ascending instance numbers within a
 /// bin).
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct Sparse {
+pub(crate) struct Sparse {
     /// `members[starts[b]..starts[b + 1]]` are the instances in bin `b`; the modal bin's run is
     /// empty.
     starts: Vec<u32>,
@@ -27,7 +27,7 @@ pub struct Sparse {
 impl Sparse {
     /// Lists the instances of `bins` outside the most populated bin (the lowest of equals),
     /// given the bins' counts.
-    pub fn new(bins: &[u16], counts: &[u32]) -> Sparse {
+    pub(crate) fn new(bins: &[u16], counts: &[u32]) -> Sparse {
         let modal = (0..counts.len())
             .max_by_key(|&b| (counts[b], std::cmp::Reverse(b)))
             .unwrap_or(0);
@@ -76,7 +76,7 @@ impl Sparse {
 /// The partition of the instances by their tuple of bins at the chosen points: each
 /// instance's group number ([`NO_GROUP`] once alone) and each group's size.
 #[derive(Debug, Clone)]
-pub struct Groups {
+pub(crate) struct Groups {
     of: Vec<u32>,
     len: Vec<u32>,
     /// Scratch for [`Groups::refine`], by group number: members met in the current bin, and
@@ -88,7 +88,7 @@ pub struct Groups {
 
 impl Groups {
     /// `n` instances in one group.
-    pub fn whole(n: usize) -> Groups {
+    pub(crate) fn whole(n: usize) -> Groups {
         Groups {
             of: vec![0; n],
             len: vec![n as u32],
@@ -99,7 +99,7 @@ impl Groups {
     }
 
     /// Group numbers in use so far (every counting table needs this many entries).
-    pub fn numbers(&self) -> usize {
+    pub(crate) fn numbers(&self) -> usize {
         self.len.len()
     }
 
@@ -108,7 +108,7 @@ impl Groups {
     /// bin, numbered in the order met); those in the modal bin stay. A member left alone in a
     /// new group leaves the partition; one left alone in its old group stays in it (it gains
     /// nothing there either: its group's share is `1·log2 1 − 1·log2 1 = 0`).
-    pub fn refine(&mut self, point: &Sparse) {
+    pub(crate) fn refine(&mut self, point: &Sparse) {
         self.count.resize(self.len.len(), 0);
         self.moved_to.resize(self.len.len(), 0);
         for run in point.runs() {
@@ -154,7 +154,7 @@ fn count_by_group(run: &[u32], of: &[u32], count: &mut [u32], met: &mut Vec<u32>
 /// One thread's counting tables for [`GroupTally::gain_cells`], indexed by group number; every
 /// entry is zero between evaluations.
 #[derive(Debug, Default)]
-pub struct GroupTally {
+pub(crate) struct GroupTally {
     /// Instances of the current bin in each group.
     count: Vec<u32>,
     /// Instances outside the modal bin in each group, and `Σ_b c·log2 c` over their bins
@@ -169,7 +169,7 @@ impl GroupTally {
     /// `Σ_groups (n_g·log2 n_g − Σ_b c_gb·log2 c_gb)` for a candidate given as its [`Sparse`]
     /// list, over the partition `groups` (`clog` from `entropy::clog_table`). Summed group by
     /// group in the order the groups are first met (deterministic for given inputs).
-    pub fn gain_cells(&mut self, sparse: &Sparse, groups: &Groups, clog: &[f64]) -> f64 {
+    pub(crate) fn gain_cells(&mut self, sparse: &Sparse, groups: &Groups, clog: &[f64]) -> f64 {
         let numbers = groups.numbers();
         if self.count.len() < numbers {
             self.count.resize(numbers, 0);

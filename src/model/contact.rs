@@ -2,7 +2,7 @@
 
 /// Hertz law `F = C_H·δ^1.5` for `δ > 0`, `F = 0` otherwise (loss of contact).
 #[inline]
-pub fn hertz_force(c_h: f64, delta_m: f64) -> f64 {
+pub(crate) fn hertz_force(c_h: f64, delta_m: f64) -> f64 {
     if delta_m > 0.0 {
         c_h * delta_m * delta_m.sqrt()
     } else {
@@ -11,7 +11,7 @@ pub fn hertz_force(c_h: f64, delta_m: f64) -> f64 {
 }
 
 /// Static compression under force `F`: `δ = (F/C_H)^(2/3)`.
-pub fn hertz_compression(c_h: f64, force_n: f64) -> f64 {
+pub(crate) fn hertz_compression(c_h: f64, force_n: f64) -> f64 {
     (force_n / c_h).powf(2.0 / 3.0)
 }
 
@@ -23,7 +23,7 @@ pub fn hertz_compression(c_h: f64, force_n: f64) -> f64 {
 /// and `G` is the (symmetric, positive) compliance of wheel and rail over the step.
 /// Newton's method on δ; the residual is monotone and convex for δ > 0, so starting from δ*
 /// (the right of the root) it converges without damping. Returns the forces.
-pub fn solve_contact_pair(c_h: f64, delta_free: [f64; 2], g: [[f64; 2]; 2]) -> [f64; 2] {
+pub(crate) fn solve_contact_pair(c_h: f64, delta_free: [f64; 2], g: [[f64; 2]; 2]) -> [f64; 2] {
     let mut d = delta_free;
     for _ in 0..60 {
         let f = [hertz_force(c_h, d[0]), hertz_force(c_h, d[1])];

@@ -242,7 +242,7 @@ fn sleeper_factor(
 
 /// Multiplier of the pad stiffness at sleeper `sleeper`: `K_p → factor·K_p`, the product of
 /// its `pad_stiffness` effects (1 without one).
-pub fn pad_stiffness_factor(effects: &[Effect], sleeper: usize) -> f64 {
+pub(crate) fn pad_stiffness_factor(effects: &[Effect], sleeper: usize) -> f64 {
     sleeper_factor(effects, sleeper, |e| match e {
         Effect::PadStiffness { sleeper, factor } => Some((*sleeper, *factor)),
         _ => None,
@@ -251,7 +251,7 @@ pub fn pad_stiffness_factor(effects: &[Effect], sleeper: usize) -> f64 {
 
 /// Multiplier of the ballast stiffness under sleeper `sleeper`: `K_b → factor·K_b`, the
 /// product of its `ballast_stiffness` effects (1 without one).
-pub fn ballast_stiffness_factor(effects: &[Effect], sleeper: usize) -> f64 {
+pub(crate) fn ballast_stiffness_factor(effects: &[Effect], sleeper: usize) -> f64 {
     sleeper_factor(effects, sleeper, |e| match e {
         Effect::BallastStiffness { sleeper, factor } => Some((*sleeper, *factor)),
         _ => None,
@@ -260,7 +260,7 @@ pub fn ballast_stiffness_factor(effects: &[Effect], sleeper: usize) -> f64 {
 
 /// The gap g (m) between sleeper `sleeper` and its ballast when the first `voided_sleeper`
 /// effect on it says so; `None` for a sleeper resting on its ballast.
-pub fn void_gap_m(effects: &[Effect], sleeper: usize) -> Option<f64> {
+pub(crate) fn void_gap_m(effects: &[Effect], sleeper: usize) -> Option<f64> {
     effects.iter().find_map(|e| match e {
         Effect::VoidedSleeper { sleeper: k, gap_mm } if *k == sleeper => Some(gap_mm * 1e-3),
         _ => None,
@@ -269,7 +269,7 @@ pub fn void_gap_m(effects: &[Effect], sleeper: usize) -> Option<f64> {
 
 /// The gain of sensor `name`'s reading: the product of its `sensor_gain` factors (1 without
 /// one).
-pub fn sensor_gain(effects: &[Effect], name: &str) -> f64 {
+pub(crate) fn sensor_gain(effects: &[Effect], name: &str) -> f64 {
     effects
         .iter()
         .filter_map(|e| match e {
@@ -286,7 +286,11 @@ pub fn sensor_gain(effects: &[Effect], name: &str) -> f64 {
 /// while the recording stays aligned on the leading wheel's laser trigger, `trigger_ahead_m`
 /// ahead of the leading wheel's start, which delays the output by
 /// `trigger_ahead_m·(1/v − 1/v')`.
-pub fn clock(effects: &[Effect], nominal_speed_m_per_s: f64, trigger_ahead_m: f64) -> (f64, f64) {
+pub(crate) fn clock(
+    effects: &[Effect],
+    nominal_speed_m_per_s: f64,
+    trigger_ahead_m: f64,
+) -> (f64, f64) {
     let nominal = nominal_speed_m_per_s;
     let mut speed = nominal;
     let mut output_delay_s = 0.0;

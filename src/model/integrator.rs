@@ -23,14 +23,14 @@
 //! A run fills caller-provided buffers and allocates nothing per step; parallelism over
 //! batches lives one level up.
 
-use super::banded::{BandError, BandedLdl};
+use super::banded::BandError;
 use super::calibration::CheckedCalibration;
 use super::contact::hertz_compression;
 use super::effect;
 use super::flat::Flat;
-use super::lanes::{Coupling, LaneInputs, LaneState, LaneWork};
-pub use super::response::{Record, Response};
-pub use super::schedule::Level;
+use super::lanes::{Coupling, LaneInputs, LaneState, LaneWork, StepLevel, Stepper};
+pub(crate) use super::response::{Record, Response};
+pub(crate) use super::schedule::Level;
 use super::schedule::{dip_zones, strike_zones, Schedule};
 use super::track::{Support, TrackModel};
 use super::vehicle::{mul4, wheel, VehicleModel};
@@ -59,17 +59,6 @@ pub enum SimError {
         /// Wheel circumference (mm).
         circumference_mm: f64,
     },
-}
-
-/// Factored matrices for one time-step size.
-#[derive(Debug, Clone)]
-pub(super) struct StepLevel {
-    pub(super) dt: f64,
-    pub(super) ldl: BandedLdl,
-    /// Dense inverse of the track's effective matrix (symmetric, row `i` at `i*n`), for the
-    /// contact compliances.
-    pub(super) a_inv: Vec<f64>,
-    pub(super) veh_inv: [[f64; 4]; 4],
 }
 
 /// Full dynamic state of track and vehicle at one instant.
@@ -241,16 +230,29 @@ impl Simulator {
         ]
     }
 
-    /// The car body's load beyond `M_c·g` at time `t` (car-body bounce effects; 0 otherwise).
-    #[inline]
-    pub(super) fn body_bounce_n(&self, t: f64) -> f64 {
+    /// Advances the active lanes of `st` by one step of `level` ([`super::lanes`]).
+    #[inline(always)]
+    pub(super) fn step_lanes<const B: usize>(
+        &self,
+        level: Level,
+        st: &mut LaneState<B>,
+        ws: &mut LaneWork<B>,
+        input: &LaneInputs<B>,
+    ) {
         let v = &self.cal.vehicle;
-        let weight_n = v.car_body_mass_kg * v.gravity_m_per_s2;
-        self.cal
-            .effects
-            .iter()
-            .map(|e| e.body_load_n(weight_n, t))
-            .sum()
+        let stepper = Stepper {
+            level: match level {
+                Level::Coarse => &self.coarse,
+                Level::Fine => &self.fine,
+            },
+            track: &self.track,
+            vehicle: &self.vehicle,
+            coupling: &self.coupling,
+            c_h: self.c_h,
+            effects: &self.cal.effects,
+            weight_n: v.car_body_mass_kg * v.gravity_m_per_s2,
+        };
+        stepper.step(st, ws, input);
     }
 
     /// Index of the wheel carrying `flat`: its own, else the calibration's.

@@ -35,15 +35,15 @@
 //! the bits do not depend on the CPU; the wide path is compiled for AVX2+FMA and chosen at
 //! run time, [`super::batch`]).
 
+use super::banded::BandedLdl;
 use super::contact::solve_contact_pair;
-use super::integrator::{Simulator, StepLevel};
-use super::schedule::Level;
+use super::effect::Effect;
 use super::track::TrackModel;
-use super::vehicle::{mul4, wheel, BOUNCE};
+use super::vehicle::{mul4, wheel, VehicleModel, BOUNCE};
 
 /// The dynamic state of `B` instances: per track DOF one value per lane.
 #[derive(Debug, Clone, PartialEq)]
-pub struct LaneState<const B: usize> {
+pub(crate) struct LaneState<const B: usize> {
     /// Time of each lane (s).
     pub time_s: [f64; B],
     /// Track displacements.
@@ -64,7 +64,7 @@ pub struct LaneState<const B: usize> {
 
 impl<const B: usize> LaneState<B> {
     /// All lanes at rest at zero (padding lanes stay so).
-    pub fn zeros(n: usize) -> LaneState<B> {
+    pub(crate) fn zeros(n: usize) -> LaneState<B> {
         LaneState {
             time_s: [0.0; B],
             u: vec![[0.0; B]; n],
@@ -78,7 +78,7 @@ impl<const B: usize> LaneState<B> {
     }
 
     /// Lane `l`'s track displacement vector is finite (and so its step did not diverge).
-    pub fn lane_finite(&self, l: usize) -> bool {
+    pub(crate) fn lane_finite(&self, l: usize) -> bool {
         self.q[l][wheel(0)].is_finite() && self.u.iter().all(|u| u[l].is_finite())
     }
 }
@@ -107,7 +107,7 @@ impl<const B: usize> LaneWork<B> {
 /// The track's stiffness and damping as sparse rows (nonzeros only), for `K·ũ + C·ṽ`, and
 /// the voided sleepers by DOF.
 #[derive(Debug, Clone)]
-pub struct Coupling {
+pub(crate) struct Coupling {
     /// Row `i`'s stiffness entries are `k[k_start[i]..k_start[i+1]]`.
     k_start: Vec<usize>,
     k: Vec<(usize, f64)>,
@@ -121,7 +121,7 @@ pub struct Coupling {
 
 impl Coupling {
     /// The nonzero rows of the track's `K` and `C`, columns ascending.
-    pub fn new(track: &TrackModel) -> Coupling {
+    pub(crate) fn new(track: &TrackModel) -> Coupling {
         let n = track.dofs();
         let hb = track.k.half_bandwidth().max(track.c.half_bandwidth());
         let rows = |m: &super::banded::BandedSym| {
@@ -218,7 +218,7 @@ fn backward_row<const B: usize>(
 
 /// Where each lane's wheels are and what they roll over at the end of the step.
 #[derive(Debug, Clone, Copy)]
-pub struct LaneInputs<const B: usize> {
+pub(crate) struct LaneInputs<const B: usize> {
     /// Lanes that take this step; the others keep their state.
     pub active: [bool; B],
     /// Wheel positions `[leading, trailing]` (m).
@@ -227,20 +227,50 @@ pub struct LaneInputs<const B: usize> {
     pub z_tr: [[f64; 2]; B],
 }
 
-impl Simulator {
-    /// Advances the active lanes of `st` by one step of `level` (module docs).
+/// Factored matrices for one time-step size.
+#[derive(Debug, Clone)]
+pub(super) struct StepLevel {
+    pub(super) dt: f64,
+    pub(super) ldl: BandedLdl,
+    /// Dense inverse of the track's effective matrix (symmetric, row `i` at `i*n`), for the
+    /// contact compliances.
+    pub(super) a_inv: Vec<f64>,
+    pub(super) veh_inv: [[f64; 4]; 4],
+}
+
+/// What one step of the lanes reads of the simulator ([`super::Simulator`] makes one a step):
+/// the step size's factored matrices, the track, the vehicle, the coupling rows, the contact
+/// constant, and the effects that load the car body.
+pub(super) struct Stepper<'a> {
+    pub(super) level: &'a StepLevel,
+    pub(super) track: &'a TrackModel,
+    pub(super) vehicle: &'a VehicleModel,
+    pub(super) coupling: &'a Coupling,
+    pub(super) c_h: f64,
+    pub(super) effects: &'a [Effect],
+    /// The car body's weight `M_c·g` (N).
+    pub(super) weight_n: f64,
+}
+
+impl Stepper<'_> {
+    /// The car body's load beyond `M_c·g` at time `t` (car-body bounce effects; 0 otherwise).
+    #[inline]
+    fn body_bounce_n(&self, t: f64) -> f64 {
+        self.effects
+            .iter()
+            .map(|e| e.body_load_n(self.weight_n, t))
+            .sum()
+    }
+
+    /// Advances the active lanes of `st` by one step (module docs).
     #[inline(always)]
-    pub(super) fn step_lanes<const B: usize>(
+    pub(super) fn step<const B: usize>(
         &self,
-        level: Level,
         st: &mut LaneState<B>,
         ws: &mut LaneWork<B>,
         input: &LaneInputs<B>,
     ) {
-        let lv: &StepLevel = match level {
-            Level::Coarse => &self.coarse,
-            Level::Fine => &self.fine,
-        };
+        let lv = self.level;
         let dt = lv.dt;
         let b = 0.25 * dt * dt;
         let g = 0.5 * dt;

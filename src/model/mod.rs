@@ -4,19 +4,19 @@
 //!
 //! Kernels here do no I/O; the simulator fills buffers it is given.
 
-pub mod banded;
-pub mod batch;
+pub(crate) mod banded;
+pub(crate) mod batch;
 pub mod calibration;
-pub mod contact;
-pub mod effect;
-pub mod flat;
-pub mod integrator;
-pub mod lanes;
+pub(crate) mod contact;
+pub(crate) mod effect;
+pub(crate) mod flat;
+pub(crate) mod integrator;
+pub(crate) mod lanes;
 pub mod response;
-pub mod schedule;
+pub(crate) mod schedule;
 pub mod track;
-pub mod vehicle;
-pub mod wheel;
+pub(crate) mod vehicle;
+pub(crate) mod wheel;
 
 pub use batch::{batch_key, BatchStats, LANES};
 pub use calibration::{Calibration, CalibrationError, CheckedCalibration};

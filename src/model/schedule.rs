@@ -65,7 +65,7 @@ impl Schedule {
 /// The strikes of `flat` on a wheel that starts at `x0_m` and rolls at `speed_m_per_s` up to
 /// `t_end_s`, and their fine zones: a strike starting at `t = (x_s − x0)/v` is covered from
 /// `t − fine_before_strike_s` to `t + L/v + fine_after_strike_s`.
-pub fn strike_zones(
+pub(crate) fn strike_zones(
     flat: &Flat,
     x0_m: f64,
     speed_m_per_s: f64,
@@ -96,7 +96,7 @@ pub fn strike_zones(
 
 /// Fine zones around the rail dips of `effects`: from each wheel's arrival at a dip to its
 /// leaving it, widened like a strike's (none for a dip of no depth).
-pub fn dip_zones(
+pub(crate) fn dip_zones(
     effects: &[Effect],
     wheel_start_m: [f64; 2],
     speed_m_per_s: f64,

@@ -5,11 +5,9 @@
 use super::calibration::CheckedCalibration;
 
 /// DOF index of the bogie bounce.
-pub const BOUNCE: usize = 0;
-/// DOF index of the bogie pitch.
-pub const PITCH: usize = 1;
+pub(crate) const BOUNCE: usize = 0;
 /// DOF index of wheel `i` (0 = leading, 1 = trailing).
-pub const fn wheel(i: usize) -> usize {
+pub(crate) const fn wheel(i: usize) -> usize {
     2 + i
 }
 
@@ -94,6 +92,6 @@ impl VehicleModel {
 
 /// `y = A·x` for a 4×4 matrix.
 #[inline]
-pub fn mul4(a: &[[f64; 4]; 4], x: &[f64; 4]) -> [f64; 4] {
+pub(crate) fn mul4(a: &[[f64; 4]; 4], x: &[f64; 4]) -> [f64; 4] {
     std::array::from_fn(|r| a[r][0] * x[0] + a[r][1] * x[1] + a[r][2] * x[2] + a[r][3] * x[3])
 }

@@ -106,12 +106,14 @@ pub fn read_text(path: &Path, limit: u64, what: &'static str) -> Result<String, 
 /// Reads and checks a calibration file, or returns the built-in defaults.
 pub fn load_calibration(path: Option<&Path>) -> Result<CheckedCalibration, PassError> {
     let Some(path) = path else {
-        return Calibration::default().check().map_err(PassError::Defaults);
+        return Calibration::default()
+            .check()
+            .map_err(|e| PassError::Defaults(Box::new(e)));
     };
     let text = read_text(path, MAX_SMALL_FILE_BYTES, "calibration file")?;
     let in_file = |source| PassError::Calibration {
         path: path.to_path_buf(),
-        source,
+        source: Box::new(source),
     };
     Calibration::from_toml_str(&text)
         .map_err(in_file)?
@@ -128,7 +130,7 @@ pub fn open_members(bank_dir: &Path, calibration: Option<&Path>) -> Result<Membe
     };
     Members::open(bank_dir, settings).map_err(|source| PassError::OpenBank {
         path: bank_dir.to_path_buf(),
-        source,
+        source: Box::new(source),
     })
 }
 
@@ -149,7 +151,7 @@ pub fn read_measurement(
         .member_for_pass(&m, None, nearest)
         .map_err(|source| PassError::NoMember {
             path: path.to_path_buf(),
-            source,
+            source: Box::new(source),
         })?;
     Ok((m, k))
 }

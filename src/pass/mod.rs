@@ -30,14 +30,14 @@ pub enum PassError {
         path: PathBuf,
         /// Why.
         #[source]
-        source: CalibrationError,
+        source: Box<CalibrationError>,
     },
     /// The built-in calibration does not check (a defect of this build).
     #[error("the built-in calibration")]
-    Defaults(#[source] CalibrationError),
+    Defaults(#[source] Box<CalibrationError>),
     /// A bank's stored calibration that no longer checks (a bank from another version).
     #[error("the bank's stored calibration")]
-    StoredCalibration(#[source] CalibrationError),
+    StoredCalibration(#[source] Box<CalibrationError>),
     /// The bank or family could not be opened.
     #[error("cannot open bank {}", path.display())]
     OpenBank {
@@ -45,7 +45,7 @@ pub enum PassError {
         path: PathBuf,
         /// Why.
         #[source]
-        source: IdentifyError,
+        source: Box<IdentifyError>,
     },
     /// No member of the family can take this pass (its speed or load is outside them all).
     #[error("measurement {}", path.display())]
@@ -54,7 +54,7 @@ pub enum PassError {
         path: PathBuf,
         /// Why.
         #[source]
-        source: IdentifyError,
+        source: Box<IdentifyError>,
     },
     /// No member of the family can take one bogie of a train pass.
     #[error("{}: bogie {bogie} (lines {} and {})", triggers.display(), 2 * bogie, 2 * bogie + 1)]
@@ -65,11 +65,11 @@ pub enum PassError {
         bogie: usize,
         /// Why.
         #[source]
-        source: IdentifyError,
+        source: Box<IdentifyError>,
     },
     /// Identification, refinement or a train's checks refused the pass.
     #[error(transparent)]
-    Identify(#[from] IdentifyError),
+    Identify(Box<IdentifyError>),
     /// The results database refused a pass.
     #[error("cannot store {what}")]
     Store {
@@ -77,11 +77,11 @@ pub enum PassError {
         what: String,
         /// Why.
         #[source]
-        source: DbError,
+        source: Box<DbError>,
     },
     /// The results database could not be opened.
     #[error("cannot open the results database")]
-    OpenDb(#[source] DbError),
+    OpenDb(#[source] Box<DbError>),
     /// A pass's file could not be read to key it.
     #[error("cannot read {}", path.display())]
     Read {
@@ -116,6 +116,12 @@ pub enum PassError {
         dir: PathBuf,
         /// Why.
         #[source]
-        source: ReportError,
+        source: Box<ReportError>,
     },
+}
+
+impl From<IdentifyError> for PassError {
+    fn from(e: IdentifyError) -> PassError {
+        PassError::Identify(Box::new(e))
+    }
 }

@@ -85,7 +85,7 @@ pub fn identify_file(
     crate::report::identify::write_identification_json(&id, out).map_err(|source| {
         PassError::Report {
             dir: out.to_path_buf(),
-            source,
+            source: Box::new(source),
         }
     })?;
     let stored = match db {

@@ -23,13 +23,13 @@ pub fn pass_key(files: &[&Path], extra: &str) -> Result<String, PassError> {
 
 /// Opens (or makes) the results database.
 pub fn open_db(path: &Path) -> Result<Db, PassError> {
-    Db::open(path).map_err(PassError::OpenDb)
+    Db::open(path).map_err(|e| PassError::OpenDb(Box::new(e)))
 }
 
 /// Stores one pass: whether it is new (`false`: the same pass was stored before).
 pub fn store(db: &mut Db, rec: &PassRecord) -> Result<bool, PassError> {
     db.insert(rec).map_err(|source| PassError::Store {
         what: format!("the pass of {}", rec.meta.measurement),
-        source,
+        source: Box::new(source),
     })
 }

@@ -43,7 +43,7 @@ pub fn identify_train(
         .calibration
         .clone()
         .check()
-        .map_err(PassError::StoredCalibration)?;
+        .map_err(|e| PassError::StoredCalibration(Box::new(e)))?;
     let bogies = crate::train::bogies_from_triggers(&cal, triggers, &times)?;
     let ids = match consist {
         Some(p) => {
@@ -67,7 +67,7 @@ pub fn identify_train(
             .map_err(|source| PassError::NoMemberForBogie {
                 triggers: triggers.to_path_buf(),
                 bogie: b + 1,
-                source,
+                source: Box::new(source),
             })?;
         if !picked.contains(&k) {
             crate::train::check_coverage(members.get(k).bank(), &members.family().members[k].dir)?;
@@ -138,7 +138,7 @@ pub fn store_train(
         );
         let new = db.insert(&rec).map_err(|source| PassError::Store {
             what: format!("bogie {} of {}", b + 1, result.recording),
-            source,
+            source: Box::new(source),
         })?;
         stored.new += usize::from(new);
         stored.named += usize::from(bogie.bogie_id.is_some());

@@ -21,13 +21,13 @@ static FONT_BYTES: &[u8] = include_bytes!(concat!(
 ));
 
 /// Font family used for every text in the figures.
-pub const FONT: &str = "sans-serif";
+pub(crate) const FONT: &str = "sans-serif";
 
 /// Size of legend labels (pixels).
-pub const LEGEND_SIZE: u32 = 18;
+pub(crate) const LEGEND_SIZE: u32 = 18;
 
 /// Distinct line colours (the matplotlib "tab10" palette).
-pub const TAB10: [RGBColor; 10] = [
+pub(crate) const TAB10: [RGBColor; 10] = [
     TAB_BLUE,
     TAB_ORANGE,
     TAB_GREEN,
@@ -40,17 +40,17 @@ pub const TAB10: [RGBColor; 10] = [
     RGBColor(23, 190, 207),
 ];
 /// "tab10" blue: measured or main lines.
-pub const TAB_BLUE: RGBColor = RGBColor(31, 119, 180);
+pub(crate) const TAB_BLUE: RGBColor = RGBColor(31, 119, 180);
 /// "tab10" orange: bands and second lines.
-pub const TAB_ORANGE: RGBColor = RGBColor(255, 127, 14);
+pub(crate) const TAB_ORANGE: RGBColor = RGBColor(255, 127, 14);
 /// "tab10" green: what passes.
-pub const TAB_GREEN: RGBColor = RGBColor(44, 160, 44);
+pub(crate) const TAB_GREEN: RGBColor = RGBColor(44, 160, 44);
 /// "tab10" red: what falsifies or is selected.
-pub const TAB_RED: RGBColor = RGBColor(214, 39, 40);
+pub(crate) const TAB_RED: RGBColor = RGBColor(214, 39, 40);
 /// Light grid lines of the single-figure plots.
-pub const GRID_LIGHT: RGBColor = RGBColor(235, 235, 235);
+pub(crate) const GRID_LIGHT: RGBColor = RGBColor(235, 235, 235);
 /// Bold grid lines.
-pub const GRID_BOLD: RGBColor = RGBColor(205, 205, 205);
+pub(crate) const GRID_BOLD: RGBColor = RGBColor(205, 205, 205);
 
 /// Errors from drawing a figure. Every variant names the file that was to be written.
 #[derive(Debug, thiserror::Error)]
@@ -95,18 +95,18 @@ pub enum PlotError {
 }
 
 /// Registers the embedded font once; returns whether it is available.
-pub fn ensure_font() -> bool {
+pub(crate) fn ensure_font() -> bool {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     *REGISTERED.get_or_init(|| register_font(FONT, FontStyle::Normal, FONT_BYTES).is_ok())
 }
 
 /// Style of legend labels: [`LEGEND_SIZE`], black.
-pub fn legend_font() -> TextStyle<'static> {
+pub(crate) fn legend_font() -> TextStyle<'static> {
     TextStyle::from((FONT, LEGEND_SIZE).into_font()).color(&BLACK)
 }
 
 /// Width and height in pixels of `text` set in `font` on `area`.
-pub fn text_size<DB: DrawingBackend>(
+pub(crate) fn text_size<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     text: &str,
     font: &TextStyle,
@@ -115,7 +115,7 @@ pub fn text_size<DB: DrawingBackend>(
 }
 
 /// Width in pixels of `text` set in `font` on `area`.
-pub fn text_width<DB: DrawingBackend>(
+pub(crate) fn text_width<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     text: &str,
     font: &TextStyle,
@@ -124,7 +124,7 @@ pub fn text_width<DB: DrawingBackend>(
 }
 
 /// Turns a plotting error into its message.
-pub fn msg(e: impl std::fmt::Display) -> String {
+pub(crate) fn msg(e: impl std::fmt::Display) -> String {
     e.to_string()
 }
 
@@ -136,7 +136,7 @@ pub fn msg(e: impl std::fmt::Display) -> String {
 /// # Errors
 /// [`PlotError::Font`], [`PlotError::Draw`] (drawing or encoding failed, the folder is
 /// missing) or [`PlotError::Io`] (the rename failed), each naming `path`.
-pub fn render_png(
+pub(crate) fn render_png(
     path: &Path,
     size: (u32, u32),
     draw: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> Result<(), String>,
@@ -172,7 +172,7 @@ pub fn render_png(
 
 /// Escapes `&`, `<`, `>`, `"` and `'` for HTML text and attribute values: the one escaper
 /// of every page the report writes.
-pub fn escape_html(s: &str) -> String {
+pub(crate) fn escape_html(s: &str) -> String {
     let mut out = String::with_capacity(s.len() + s.len() / 8);
     for c in s.chars() {
         match c {
@@ -188,7 +188,7 @@ pub fn escape_html(s: &str) -> String {
 }
 
 /// Smallest and largest finite value, if any.
-pub fn min_max(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
+pub(crate) fn min_max(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
     values
         .filter(|v| v.is_finite())
         .fold(None, |acc, v| match acc {
@@ -199,7 +199,7 @@ pub fn min_max(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
 
 /// `range` widened by `frac` of its span on each side; degenerate or missing ranges get a
 /// unit span.
-pub fn pad_range(range: Option<(f64, f64)>, frac: f64) -> (f64, f64) {
+pub(crate) fn pad_range(range: Option<(f64, f64)>, frac: f64) -> (f64, f64) {
     match range {
         None => (0.0, 1.0),
         Some((lo, hi)) if hi - lo > 0.0 => {
@@ -214,7 +214,7 @@ pub fn pad_range(range: Option<(f64, f64)>, frac: f64) -> (f64, f64) {
 }
 
 /// The (x, y) points split into runs of finite points, so gaps break the line.
-pub fn finite_runs(points: impl Iterator<Item = (f64, f64)>) -> Vec<Vec<(f64, f64)>> {
+pub(crate) fn finite_runs(points: impl Iterator<Item = (f64, f64)>) -> Vec<Vec<(f64, f64)>> {
     let mut runs = Vec::new();
     let mut run = Vec::new();
     for (x, y) in points {
@@ -231,7 +231,7 @@ pub fn finite_runs(points: impl Iterator<Item = (f64, f64)>) -> Vec<Vec<(f64, f6
 }
 
 /// A tick label: as few decimals as the value needs (up to 6), no trailing zeros.
-pub fn format_tick(v: f64) -> String {
+pub(crate) fn format_tick(v: f64) -> String {
     if !v.is_finite() {
         return String::new();
     }
@@ -245,11 +245,11 @@ pub fn format_tick(v: f64) -> String {
 }
 
 /// A chart with `f64` axes.
-pub type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+pub(crate) type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
 /// Draws `text` with a white backing box, its top-left corner `offset` pixels from the data
 /// point `at`.
-pub fn draw_label<DB: DrawingBackend>(
+pub(crate) fn draw_label<DB: DrawingBackend>(
     chart: &Chart<DB>,
     at: (f64, f64),
     text: &str,
@@ -268,14 +268,14 @@ pub fn draw_label<DB: DrawingBackend>(
 }
 
 /// Label placement that avoids overlaps: boxes in absolute pixel coordinates.
-pub struct Placer {
+pub(crate) struct Placer {
     taken: Vec<[i32; 4]>,
     bounds: [i32; 4],
 }
 
 impl Placer {
     /// A placer for labels inside the pixel ranges `(xs, ys)`, nothing taken yet.
-    pub fn new((xs, ys): (Range<i32>, Range<i32>)) -> Self {
+    pub(crate) fn new((xs, ys): (Range<i32>, Range<i32>)) -> Self {
         Self {
             taken: Vec::new(),
             bounds: [xs.start, ys.start, xs.end, ys.end],
@@ -283,14 +283,14 @@ impl Placer {
     }
 
     /// Marks a box `[x0, y0, x1, y1]` as occupied.
-    pub fn occupy(&mut self, b: [i32; 4]) {
+    pub(crate) fn occupy(&mut self, b: [i32; 4]) {
         self.taken.push(b);
     }
 
     /// Picks the first of `offsets` (top-left corner of a `size` box relative to `anchor`)
     /// whose box is inside the bounds and free, else the first; occupies it and returns the
     /// offset.
-    pub fn place(
+    pub(crate) fn place(
         &mut self,
         anchor: (i32, i32),
         size: (u32, u32),
@@ -329,7 +329,7 @@ impl Placer {
 
 /// Offsets (top-left corner relative to the anchor) to try for a `w`×`h` label next to a
 /// marker of radius `r`: right and left of it, above, below, then further out.
-pub fn around(w: i32, h: i32, r: i32) -> Vec<(i32, i32)> {
+pub(crate) fn around(w: i32, h: i32, r: i32) -> Vec<(i32, i32)> {
     let right = r + 4;
     let left = -w - r - 4;
     let mut offsets = Vec::new();
@@ -345,7 +345,7 @@ pub fn around(w: i32, h: i32, r: i32) -> Vec<(i32, i32)> {
 }
 
 /// Offsets that stack a `w`×`h` label above an anchor (bar tops), then beside it.
-pub fn above(w: i32, h: i32) -> Vec<(i32, i32)> {
+pub(crate) fn above(w: i32, h: i32) -> Vec<(i32, i32)> {
     let mut offsets: Vec<(i32, i32)> = (0..5).map(|k| (-w / 2, -h - 6 - k * (h + 4))).collect();
     offsets.extend([
         (6, -h - 6),

@@ -1,11 +1,11 @@
 //! Plots and tables for people.
 
 pub mod audit;
-pub mod canvas;
+pub(crate) mod canvas;
 pub mod diagnose;
 pub mod history;
 pub mod identify;
-pub mod plot;
+pub(crate) mod plot;
 pub mod response;
 pub mod tables;
 pub mod train;

@@ -27,20 +27,21 @@
 //!
 //! Two studied variants were taken out of the product in issue 34 (their figures, in
 //! docs/severity.md and docs/decisions.md, were measured at commit 1e7f4f2 with
-//! `studies/src/bin/refine_study`): a witness search (flats that pass every point with no widening;
-//! coverage 0.78–0.83 on 100 cases) and a last round judged at every sample of the record
-//! (severity right 0.73 against 0.63, coverage 0.80–0.87 on the finer-model cases).
+//! `examples/refine_study.rs`, now `studies/src/bin/refine_study.rs`): a witness search
+//! (flats that pass every point with no widening; coverage 0.78–0.83 on 100 cases) and a last
+//! round judged at every sample of the record (severity right 0.73 against 0.63, coverage
+//! 0.80–0.87 on the finer-model cases).
 
 mod local;
 mod points;
 
 use super::falsify::{falsify, largest_step, Resolution};
-use super::result::{Identification, ParamRanges};
+use super::result::Identification;
+pub use super::result::{RefineRound, Refinement};
 use super::{Identifier, IdentifyError};
 use crate::model::{Simulator, WheelPosition};
 use local::{local_cells, ranges_of, sample_in_cells};
 use points::{simulate_at, Comparison};
-use serde::{Deserialize, Serialize};
 
 /// The most simulations one refinement may ask for (a resource bound: 20,000 take about
 /// 40 s on 2 cores).
@@ -107,47 +108,6 @@ impl RefineSettings {
         }
         Ok(())
     }
-}
-
-/// One round of a refinement.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RefineRound {
-    /// Flats simulated in the round.
-    pub simulated: usize,
-    /// Seeds plus new flats that survive.
-    pub survivors: usize,
-    /// The round's answer (None when nothing survived).
-    pub ranges: Option<ParamRanges>,
-}
-
-/// The refined answer, reported beside the bank-only one.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Refinement {
-    /// The union of the last surviving round's cells.
-    pub ranges: Option<ParamRanges>,
-    /// Flats that stand for it (the last surviving round's survivors).
-    pub survivors: usize,
-    /// Simulations run.
-    pub simulations: usize,
-    /// Every round.
-    pub rounds: Vec<RefineRound>,
-    /// True when a round kept nothing and an earlier answer stands.
-    pub stopped_early: bool,
-    /// Wall time (ms).
-    pub time_ms: f64,
-    /// The refined answer in words.
-    pub summary: String,
-    /// The maintenance hint from the refined upper L0 bound (rule stated), or why the bank-only
-    /// answer's stands.
-    pub maintenance_hint: String,
-    /// The classes the refined answer spans (absent when the bank-only verdict stands).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub severity: Option<super::SeverityRange>,
-    /// The surviving flats' cells in (L, d, c) — `[L_lo, L_hi, d_lo, d_hi, c_lo, c_hi]`
-    /// (mm), clamped to the population — and their wheels, for the results database (not in
-    /// the JSON; empty when the bank-only answer stands).
-    #[serde(skip)]
-    pub cells: Vec<([f64; 6], WheelPosition)>,
 }
 
 /// A flat of the local population with its predictions at the comparison points.

@@ -5,10 +5,12 @@
 use super::html::cms_ranges;
 use super::*;
 use crate::identify::result::{ParamRanges, WheelRanges};
-use crate::report::canvas::escape_html;
+use crate::report::canvas::{escape_html, format_tick};
 use crate::report::dir_entries;
 
-use super::sample::{hull_of, identification as synthetic, SUMMARY};
+mod sample;
+
+use sample::{hull_of, identification as synthetic, SUMMARY};
 
 /// Writes the report and checks the files, the JSON round trip and the HTML.
 fn check_report(id: &Identification, svgs: usize) {
@@ -314,7 +316,7 @@ fn the_preview_fixtures_are_the_sample() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data");
     for (name, id) in [
         ("preview.json", synthetic()),
-        ("preview-dense.json", super::sample::dense()),
+        ("preview-dense.json", sample::dense()),
     ] {
         let path = dir.join(name);
         if std::env::var_os("WHEELFLAT_WRITE_FIXTURES").is_some() {

@@ -9,23 +9,24 @@ use crate::identify::result::{
 use crate::report::canvas::min_max;
 
 /// Sample rate of the hand-made series (Hz).
-pub const RATE_HZ: f64 = 5000.0;
+pub(super) const RATE_HZ: f64 = 5000.0;
 /// Samples per series.
-pub const SAMPLES: usize = 300;
+pub(super) const SAMPLES: usize = 300;
 /// The verdict text (with characters HTML must escape).
-pub const SUMMARY: &str = "The flat is L0 = 41–54 mm long (fresh-flat length < 60 mm & d < 1 mm); \
+pub(super) const SUMMARY: &str =
+    "The flat is L0 = 41–54 mm long (fresh-flat length < 60 mm & d < 1 mm); \
                        15 of 50000 instances remain \"candidate\" models.";
 
 /// `v` rounded to 9 decimals. serde_json is built without its `float_roundtrip` feature,
 /// so its parser may be one ulp off for 17-digit numbers; measured data with realistic
 /// precision (≤ 15 significant digits) round-trips exactly.
-pub fn q(v: f64) -> f64 {
+pub(super) fn q(v: f64) -> f64 {
     (v * 1e9).round() / 1e9
 }
 
 /// Smooth rail-pad pulses: a wheel passing (broad bump), the flat's impact (sharp peak
 /// with a decaying ripple), and the second wheel.
-pub fn pulse(t: f64, impact: f64) -> f64 {
+pub(super) fn pulse(t: f64, impact: f64) -> f64 {
     let g = |c: f64, w: f64| (-((t - c) / w).powi(2)).exp();
     let ripple = if t > impact {
         8.0 * (-(t - impact) / 0.004).exp()
@@ -54,7 +55,7 @@ fn detection(series: &[MeasuredSeries]) -> crate::identify::Detection {
 
 /// Parameter ranges over a set of instances: their hull (none when empty). The report used
 /// to show these for the CMS; the identification reports the union of cells, which is wider.
-pub fn hull_of(instances: &[InstanceParams]) -> Option<ParamRanges> {
+pub(super) fn hull_of(instances: &[InstanceParams]) -> Option<ParamRanges> {
     let range =
         |f: fn(&InstanceParams) -> f64| min_max(instances.iter().map(f)).map(|(lo, hi)| [lo, hi]);
     Some(ParamRanges {
@@ -74,7 +75,7 @@ pub fn hull_of(instances: &[InstanceParams]) -> Option<ParamRanges> {
 }
 
 /// Candidate instance `k` (parameters spread smoothly around L0 ≈ 42 mm).
-pub fn instance(k: u32) -> InstanceParams {
+pub(super) fn instance(k: u32) -> InstanceParams {
     let f = f64::from(k);
     let depth = q(0.55 + 0.02 * (f * 1.7).sin().abs() + 0.01 * f / 15.0);
     InstanceParams {
@@ -90,7 +91,7 @@ pub fn instance(k: u32) -> InstanceParams {
 
 /// A realistic hand-made identification: 2 series of 300 samples, 20 PIP, 6 EIP,
 /// 15 CMS instances, 200 random subsets.
-pub fn identification() -> Identification {
+pub(super) fn identification() -> Identification {
     let impacts = [0.0265, 0.0305];
     let series: Vec<MeasuredSeries> = ["rps1", "rps2"]
         .iter()
@@ -278,7 +279,7 @@ pub fn identification() -> Identification {
 }
 
 /// Paper-sized: 30 PIP per series, 18 EIP crowded after the impact, 500 candidate instances.
-pub fn dense() -> Identification {
+pub(super) fn dense() -> Identification {
     let mut id = identification();
     id.candidates.clear();
     for s in 0..2 {

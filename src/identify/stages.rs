@@ -1,0 +1,512 @@
+//! The sizing stages of [`Identifier::identify`], for a pass with a flat detected, each one
+//! lap of `timings_ms`:
+//! 1. [`Identifier::read_predictions`]: the bank's predictions at the PIP candidates and the
+//!    envelope windows (the hot read, one memory-mapped pass);
+//! 2. [`Identifier::select_points`]: the comparison points (EIP) by greedy joint entropy, at
+//!    bin widths of the thresholds widened by the bank's resolution — once with one point's
+//!    Šídák probability, again with the number of points found;
+//! 3. [`Identifier::judge`]: the envelope points, the thresholds at the Šídák probability of
+//!    every point, falsification (with the discretisation allowance) and the departure rule;
+//! 4. [`Identifier::assemble`]: the candidate model set, its ranges per wheel, the baselines
+//!    and entropy curves when asked for, the summary and severity.
+
+use super::buffer::HugeBuffer;
+use super::entropy::{self, bin_into, binned_columns, greedy_joint_entropy, Binned, Selection};
+use super::envelope::{self, EnvelopePoint};
+use super::falsify::{self, falsify, residual_minimisation, Point};
+use super::ranges::{instance, population_ranges};
+use super::result::{
+    Alignment, CandidatePoint, EntropyCurve, Falsification, InstanceParams, MeasuredSeries, Method,
+    WheelRanges,
+};
+use super::severity::{below_population_words, summarise, SeverityRange};
+use super::{Detection, Extras, Identification, Identifier, IdentifyError, Measurement};
+use super::{ThresholdCurve, WheelPosition};
+use std::time::Instant;
+
+/// The laps of one identification (ms each), named as `timings_ms` names them.
+pub(super) struct Laps {
+    clock: Instant,
+    /// (stage, ms) in order.
+    pub(super) timings: Vec<(String, f64)>,
+}
+
+impl Laps {
+    /// The clock started.
+    pub(super) fn start() -> Laps {
+        Laps {
+            clock: Instant::now(),
+            timings: Vec::new(),
+        }
+    }
+
+    /// The time since the last lap, as `name`.
+    pub(super) fn lap(&mut self, name: &str) {
+        self.timings
+            .push((name.to_string(), self.clock.elapsed().as_secs_f64() * 1e3));
+        self.clock = Instant::now();
+    }
+}
+
+/// What the sizing stages read of the prepared measurement.
+pub(super) struct Sizing<'a> {
+    /// The measurement.
+    pub(super) m: &'a Measurement,
+    /// The optional parts asked for.
+    pub(super) extras: Extras,
+    /// (measurement sensor index, bank axis index) of the sensors used.
+    pub(super) used: &'a [(usize, usize)],
+    /// The PIP candidates: (series, sample, PIP order).
+    pub(super) cands: &'a [(usize, usize, usize)],
+}
+
+/// Stage 1's outcome: the predictions read, and the envelope windows they include.
+pub(super) struct Read<'b> {
+    /// Every instance's prediction at each candidate (one column a candidate).
+    pub(super) predictions: Vec<&'b [f32]>,
+    /// The envelope windows' columns, window after window, sample after sample.
+    pub(super) env_columns: Vec<&'b [f32]>,
+    /// The envelope windows' centres (series, sample).
+    pub(super) centres: Vec<(usize, usize)>,
+    /// The measured force at each candidate (kN).
+    pub(super) measured: Vec<f64>,
+}
+
+/// Stage 2's outcome: the EIP and what the selection binned.
+pub(super) struct Selected<'c> {
+    /// Each candidate's thresholds' widening by the bank's resolution (kN).
+    pub(super) widening: Vec<f64>,
+    /// Each candidate's predictions binned at the final widths.
+    pub(super) binned: Vec<Binned<&'c [u16]>>,
+    /// The EIP in order, with the joint entropy after each.
+    pub(super) selection: Selection,
+    /// The selection's stopping gain (bits).
+    pub(super) alpha_bits: f64,
+}
+
+/// Stage 3's outcome: the envelope points, the thresholds, the points judged and what
+/// survives them.
+pub(super) struct Judged {
+    /// The Šídák probability of each point.
+    pub(super) p_final: f64,
+    /// The envelope points, as reported.
+    pub(super) envelope: Vec<EnvelopePoint>,
+    /// Thresholds at each candidate's measured force (kN).
+    pub(super) thresholds: Vec<(f64, f64)>,
+    /// Threshold curves where a prediction may exceed the measurement (the EIP; every
+    /// candidate with the baselines).
+    pub(super) curves: Vec<Option<ThresholdCurve>>,
+    /// The instance of least squared residual at the EIP (the residual-minimisation baseline).
+    pub(super) residual_best: usize,
+    /// Every point the method judged (EIP and envelope).
+    pub(super) method_points: usize,
+    /// The candidate model set (instances).
+    pub(super) cms: Vec<u32>,
+    /// The measurement is smaller than the population's smallest flat.
+    pub(super) below_population: bool,
+}
+
+/// The parts of the result the stages before sizing made.
+pub(super) struct Prepared {
+    /// How the measurement was put on the bank's time axis.
+    pub(super) alignment: Alignment,
+    /// The series on the bank's windows.
+    pub(super) series: Vec<MeasuredSeries>,
+    /// The load the record shows.
+    pub(super) load: Option<super::load::LoadEstimate>,
+    /// Detection's answer.
+    pub(super) detection: Detection,
+}
+
+impl Identifier {
+    /// Stage 1: the bank's predictions at the candidates, then at the envelope windows at the
+    /// impact spikes (they depend on the measurement only, so they are read together).
+    pub(super) fn read_predictions<'b>(
+        &self,
+        z: &Sizing<'_>,
+        series: &[MeasuredSeries],
+        buffer: &'b mut HugeBuffer,
+        laps: &mut Laps,
+    ) -> Result<Read<'b>, IdentifyError> {
+        let meta = self.bank.metadata();
+        let hw = self.settings.envelope_half_width_samples;
+        let template: Vec<&[f32]> = z
+            .used
+            .iter()
+            .map(|&(_, bi)| meta.flat_free_kn[bi].as_slice())
+            .collect();
+        let centres = envelope::windows(
+            series,
+            &template,
+            self.settings.envelope_windows_per_sensor,
+            hw,
+        );
+        laps.lap("align and pip");
+        let cols: Vec<usize> = z
+            .cands
+            .iter()
+            .map(|&(si, k, _)| self.bank.sample_index(z.used[si].1, k))
+            .chain(
+                centres
+                    .iter()
+                    .flat_map(|&(si, k)| (k - hw..=k + hw).map(move |j| (si, j)))
+                    .map(|(si, j)| self.bank.sample_index(z.used[si].1, j)),
+            )
+            .collect();
+        let n = self.bank.instances();
+        let flat = buffer
+            .values(cols.len() * n)
+            .map_err(|source| IdentifyError::Memory {
+                what: "the bank's predictions",
+                mb: (cols.len() * n * 4) >> 20,
+                source,
+            })?;
+        self.bank.read_columns_flat(&cols, flat)?;
+        let (flat, env_flat) = flat.split_at(z.cands.len() * n);
+        let predictions: Vec<&[f32]> = flat.chunks(n.max(1)).collect();
+        let env_columns: Vec<&[f32]> = env_flat.chunks(n.max(1)).collect();
+        laps.lap("read columns");
+        let measured: Vec<f64> = z
+            .cands
+            .iter()
+            .map(|&(si, k, _)| series[si].values_kn[k])
+            .collect();
+        Ok(Read {
+            predictions,
+            env_columns,
+            centres,
+            measured,
+        })
+    }
+
+    /// Stage 2: the comparison points. Entropy bins at the Šídák width for m points; m comes
+    /// from the selection itself, so select with m = 1, then again with the m found (the
+    /// widths, and so the choice, change). Bin width: the thresholds widened by the bank's
+    /// typical resolution at the point, so points the bank cannot resolve (moving impact
+    /// edges) are not taken as informative.
+    pub(super) fn select_points<'c>(
+        &self,
+        read: &Read<'_>,
+        bin_buffer: &'c mut HugeBuffer,
+        laps: &mut Laps,
+    ) -> Result<Selected<'c>, IdentifyError> {
+        use rayon::prelude::*;
+        let s = &self.settings;
+        let n = self.bank.instances();
+        let (predictions, measured) = (&read.predictions, &read.measured);
+        let alpha_bits = s.alpha_fraction * (n as f64).log2();
+        let all: Vec<usize> = (0..measured.len()).collect();
+        let widening: Vec<f64> = predictions
+            .par_iter()
+            .map(|g| self.typical_widening(g))
+            .collect();
+        let bounds = |i: usize, p: f64| {
+            let (lo, hi) = self.uncertainty.thresholds(measured[i], p);
+            (lo - widening[i], hi + widening[i])
+        };
+        let bins: &mut [u16] =
+            bin_buffer
+                .values(measured.len() * n)
+                .map_err(|source| IdentifyError::Memory {
+                    what: "the predictions' bins",
+                    mb: (measured.len() * n * 2) >> 20,
+                    source,
+                })?;
+        // Bins every candidate's predictions at the widths for p into `bins` (one column a
+        // candidate); returns each column's number of bins, entropy and instances outside its
+        // most populated bin.
+        let bin_all = |p: f64, bins: &mut [u16]| -> Vec<entropy::Histogram> {
+            bins.par_chunks_mut(n.max(1))
+                .enumerate()
+                .map(|(i, b)| {
+                    let (lo, hi) = bounds(i, p);
+                    bin_into(predictions[i], hi - lo, b)
+                })
+                .collect()
+        };
+        laps.lap("resolution");
+        let hists = bin_all(s.phi, bins);
+        let first = {
+            let binned = binned_columns(bins, n, hists);
+            laps.lap("binning 1");
+            greedy_joint_entropy(&binned, &all, alpha_bits, measured.len())
+        };
+        let m1 = first.order.len().max(1);
+        let p = s.phi.powf(1.0 / m1 as f64);
+        laps.lap("greedy 1");
+        let hists = bin_all(p, bins);
+        let binned = binned_columns(bins, n, hists);
+        laps.lap("binning 2");
+        let selection = greedy_joint_entropy(&binned, &all, alpha_bits, m1);
+        laps.lap("greedy 2");
+        Ok(Selected {
+            widening,
+            binned,
+            selection,
+            alpha_bits,
+        })
+    }
+
+    /// Stage 3: the envelope points (Šídák over every point), the thresholds, falsification
+    /// at the EIP and envelope points, then the departure rule.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn judge(
+        &self,
+        z: &Sizing<'_>,
+        series: &[MeasuredSeries],
+        read: &Read<'_>,
+        selected: &Selected<'_>,
+        axes: &[usize],
+        detection: &Detection,
+        laps: &mut Laps,
+    ) -> Result<Judged, IdentifyError> {
+        let s = &self.settings;
+        let hw = s.envelope_half_width_samples;
+        let order = &selected.selection.order;
+        let m_final = order.len().max(1);
+        let p_final = s.phi.powf(1.0 / (m_final + 2 * read.centres.len()) as f64);
+        let (env_reported, env_features, env_curves) = envelope::points(
+            series,
+            &read.centres,
+            hw,
+            &self.uncertainty,
+            p_final,
+            &read.env_columns,
+        );
+        laps.lap("envelope");
+
+        let measured = &read.measured;
+        let thresholds: Vec<(f64, f64)> = (0..measured.len())
+            .map(|i| self.uncertainty.thresholds(measured[i], p_final))
+            .collect();
+        // The thresholds at a prediction's own force where it exceeds the measurement: for the
+        // EIP, and for every candidate when the baselines draw from them.
+        let curves: Vec<Option<ThresholdCurve>> = (0..measured.len())
+            .map(|i| {
+                (z.extras.baselines || order.contains(&i))
+                    .then(|| self.uncertainty.curve(measured[i], p_final))
+            })
+            .collect();
+        // The discretisation allowance's steps (identify::discretisation).
+        let shares = self.discretisation();
+        let (eip_steps, env_steps) = match shares {
+            Some(_) => self.allowance_steps(
+                z.used,
+                series,
+                z.cands,
+                order,
+                &read.predictions,
+                &read.env_columns,
+                hw,
+            )?,
+            None => (Vec::new(), Vec::new()),
+        };
+        let point = |i: usize| Point {
+            predictions: read.predictions[i],
+            measured_kn: measured[i],
+            low_kn: thresholds[i].0,
+            high_kn: thresholds[i].1,
+            curve: curves[i].as_ref(),
+            discretisation: None,
+        };
+        let eip_points: Vec<Point> = order
+            .iter()
+            .enumerate()
+            .map(|(j, &i)| Point {
+                discretisation: falsify::Discretisation::of(shares, &eip_steps, j),
+                ..point(i)
+            })
+            .collect();
+        let mut method_points = eip_points.clone();
+        method_points.extend(
+            envelope::as_points(&env_reported, &env_features, &env_curves)
+                .into_iter()
+                .enumerate()
+                .map(|(j, p)| Point {
+                    discretisation: falsify::Discretisation::of(shares, &env_steps, j / 2),
+                    ..p
+                }),
+        );
+        let cms_idx = falsify(&method_points, self.resolution());
+        laps.lap("falsify");
+        let (cms, below_population) = self.departure_rule(cms_idx, axes, detection)?;
+        laps.lap("departures");
+        let residual_best = residual_minimisation(&eip_points);
+        let method_points = method_points.len();
+        Ok(Judged {
+            p_final,
+            envelope: env_reported,
+            thresholds,
+            curves,
+            residual_best,
+            method_points,
+            cms,
+            below_population,
+        })
+    }
+
+    /// Stage 4: the result. The candidate model set and its ranges (all, and per wheel), the
+    /// method's falsification, the baselines (residual minimisation, random subsets,
+    /// equidistant points) and the entropy curves per sensor set when asked for, the summary,
+    /// maintenance hint and severity classes.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn assemble(
+        &self,
+        z: &Sizing<'_>,
+        read: &Read<'_>,
+        selected: Selected<'_>,
+        judged: Judged,
+        prepared: Prepared,
+        mut laps: Laps,
+    ) -> Result<Identification, IdentifyError> {
+        let s = &self.settings;
+        let meta = self.bank.metadata();
+        let n = self.bank.instances();
+        let (cands, measured, thresholds) = (z.cands, &read.measured, &judged.thresholds);
+        let series = &prepared.series;
+        let m_final = selected.selection.order.len().max(1);
+        let candidates: Vec<CandidatePoint> = cands
+            .iter()
+            .enumerate()
+            .map(|(i, &(si, k, order))| CandidatePoint {
+                series: si,
+                sample: k,
+                time_s: series[si].t0_s + k as f64 / series[si].sample_rate_hz,
+                measured_kn: measured[i],
+                pip_order: order,
+                entropy_bits: selected.binned[i].entropy_bits,
+                threshold_low_kn: thresholds[i].0,
+                threshold_high_kn: thresholds[i].1,
+                resolution_kn: selected.widening[i],
+            })
+            .collect();
+        let cms: Vec<InstanceParams> = judged
+            .cms
+            .iter()
+            .map(|&k| instance(&self.params, k as usize))
+            .collect();
+        let cms_ranges = self.ranges(judged.cms.iter().map(|&k| k as usize));
+        let wheel_ranges: Vec<WheelRanges> = [WheelPosition::Leading, WheelPosition::Trailing]
+            .into_iter()
+            .filter_map(|wheel| {
+                let members: Vec<usize> = judged
+                    .cms
+                    .iter()
+                    .map(|&k| k as usize)
+                    .filter(|&k| WheelPosition::from_code(self.params.flat_wheel[k]) == wheel)
+                    .collect();
+                Some(WheelRanges {
+                    wheel,
+                    cms_count: members.len(),
+                    ranges: self.ranges(members.into_iter())?,
+                })
+            })
+            .collect();
+        let mut falsifications = vec![Falsification {
+            method: Method::Eip {
+                envelope: !judged.envelope.is_empty(),
+                departures: s.falsify_at_departures,
+            },
+            points: judged.method_points,
+            cms_count: cms.len(),
+            ranges: cms_ranges.clone(),
+        }];
+
+        let mut random_subsets = None;
+        if z.extras.baselines {
+            let all_points: Vec<Point> = (0..cands.len())
+                .map(|i| Point {
+                    predictions: read.predictions[i],
+                    measured_kn: measured[i],
+                    low_kn: thresholds[i].0,
+                    high_kn: thresholds[i].1,
+                    curve: judged.curves[i].as_ref(),
+                    discretisation: None,
+                })
+                .collect();
+            let (subsets, random) = self.random_subsets(&all_points, m_final);
+            random_subsets = Some(subsets);
+            falsifications.push(random);
+            falsifications.push(self.equidistant(series, z.used, m_final, judged.p_final)?);
+            laps.lap("baselines");
+        }
+
+        let mut entropy_curves = Vec::new();
+        if z.extras.curves {
+            let mut sets: Vec<(String, Vec<usize>)> = series
+                .iter()
+                .enumerate()
+                .map(|(si, ser)| {
+                    (
+                        ser.sensor.clone(),
+                        (0..cands.len()).filter(|&i| cands[i].0 == si).collect(),
+                    )
+                })
+                .collect();
+            if series.len() > 1 {
+                let label = series
+                    .iter()
+                    .map(|s| s.sensor.as_str())
+                    .collect::<Vec<_>>()
+                    .join("+");
+                sets.push((label, (0..cands.len()).collect()));
+            }
+            for (label, allowed) in sets {
+                let sel = greedy_joint_entropy(&selected.binned, &allowed, 0.0, allowed.len());
+                entropy_curves.push(EntropyCurve {
+                    label,
+                    joint_entropy_bits: sel.joint_bits,
+                });
+            }
+            laps.lap("entropy curves");
+        }
+
+        let population = population_ranges(&meta.calibration);
+        let below_population = judged.below_population;
+        let refuted = cms.is_empty() && !below_population;
+        let (summary, hint) = if below_population {
+            below_population_words(&population, s)
+        } else {
+            summarise(&cms_ranges, cms.len(), n, judged.method_points, s)
+        };
+        let severity = SeverityRange::of_answer(
+            true,
+            cms_ranges.as_ref(),
+            below_population.then_some(population.l0_mm[0]),
+            s,
+        );
+        Ok(Identification {
+            measurement: z.m.path.display().to_string(),
+            speed: self.speed_use(z.m),
+            load: prepared.load,
+            bank_id: meta.bank_id.clone(),
+            bank_instances: n,
+            population,
+            alignment: prepared.alignment,
+            series: prepared.series,
+            pip_distance: s.pip_distance,
+            pips_per_series: s.pips_per_series,
+            candidates,
+            eip: selected.selection.order,
+            eip_joint_entropy_bits: selected.selection.joint_bits,
+            envelope: judged.envelope,
+            alpha_bits: selected.alpha_bits,
+            entropy_curves,
+            phi: s.phi,
+            per_point_probability: judged.p_final,
+            cms,
+            falsifications,
+            wheel_ranges,
+            residual_minimisation: Some(instance(&self.params, judged.residual_best)),
+            random_subsets,
+            model_class_refuted: refuted,
+            below_population,
+            detection: Some(prepared.detection),
+            summary,
+            maintenance_hint: hint,
+            severity: Some(severity),
+            timings_ms: laps.timings,
+            refinement: None,
+        })
+    }
+}
