@@ -3,8 +3,8 @@
 use std::path::Path;
 use std::time::Instant;
 use wheelflat::bank::Bank;
-use wheelflat::identify::cells::Cells;
-use wheelflat::identify::uncertainty::CombinedUncertainty;
+use wheelflat::identify::Cells;
+use wheelflat::identify::CombinedUncertainty;
 
 fn main() {
     // A probe, not a criterion bench: without its bank (as in a plain `cargo bench`) it says so.

@@ -5,7 +5,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::hint::black_box;
-use wheelflat::bank::population::Population;
+use wheelflat::bank::Population;
 use wheelflat::model::{batch_key, Calibration, Flat, Record, Simulator, LANES};
 
 fn simulate(c: &mut Criterion) {

@@ -37,12 +37,12 @@ use parquet::basic::{Compression, Encoding, Type as PhysicalType};
 use std::path::Path;
 
 /// The layout's file name inside a version directory.
-pub const LAYOUT_FILE: &str = "layout.bin";
+pub(crate) const LAYOUT_FILE: &str = "layout.bin";
 
 const MAGIC: &[u8; 8] = b"WFLAYOU2";
 
 /// The magic of the first layout format (without checksums), which `bank generate` replaces.
-pub const EARLIER_MAGIC: &[u8; 8] = b"WFLAYOU1";
+pub(crate) const EARLIER_MAGIC: &[u8; 8] = b"WFLAYOU1";
 
 /// Where one shard's column values lie.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -74,7 +74,7 @@ pub struct Layout {
 
 /// The footer length a Parquet file states in its last 8 bytes (`len u32`, `PAR1`), or `None`
 /// when the file does not end like a Parquet file.
-pub fn footer_length(file: &[u8]) -> Option<u32> {
+pub(crate) fn footer_length(file: &[u8]) -> Option<u32> {
     let n = file.len();
     if n < 12 || &file[n - 4..] != b"PAR1" || &file[..4] != b"PAR1" {
         return None;
@@ -86,7 +86,7 @@ pub fn footer_length(file: &[u8]) -> Option<u32> {
 
 /// What [`derive`] finds for one shard.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Derived {
+pub(crate) enum Derived {
     /// The shard's layout and its columns' value widths.
     Layout(ShardLayout, Vec<u8>),
     /// The shard is not stored so that a layout applies (compressed, other encodings, several
@@ -100,7 +100,7 @@ fn ineligible(why: String) -> Result<Derived, BankError> {
 
 /// A shard's layout from its footer (`meta`) and bytes, each column's slice checked equal to
 /// what the Parquet decoder reads.
-pub fn derive(
+pub(crate) fn derive(
     path: &Path,
     bytes: &Bytes,
     meta: &ArrowReaderMetadata,
@@ -380,21 +380,21 @@ impl Layout {
 }
 
 /// The values of a 4-byte column as f32 (the column's bytes, little-endian).
-pub fn f32_values(bytes: &[u8], out: &mut [f32]) {
+pub(crate) fn f32_values(bytes: &[u8], out: &mut [f32]) {
     for (o, c) in out.iter_mut().zip(bytes.chunks_exact(4)) {
         *o = f32::from_le_bytes(c.try_into().expect("4 bytes"));
     }
 }
 
 /// The values of an 8-byte column as f64.
-pub fn f64_values(bytes: &[u8]) -> impl Iterator<Item = f64> + '_ {
+pub(crate) fn f64_values(bytes: &[u8]) -> impl Iterator<Item = f64> + '_ {
     bytes
         .chunks_exact(8)
         .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
 }
 
 /// The values of a 4-byte column as u32.
-pub fn u32_values(bytes: &[u8]) -> impl Iterator<Item = u32> + '_ {
+pub(crate) fn u32_values(bytes: &[u8]) -> impl Iterator<Item = u32> + '_ {
     bytes
         .chunks_exact(4)
         .map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes")))

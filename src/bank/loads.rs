@@ -12,12 +12,12 @@ use serde::{Deserialize, Serialize};
 /// pass's load may be: measured 2026-11-26 (`studies/src/bin/load_study`, 200 converged passes a
 /// load, docs/bank.md "Every load"): coverage 0.990 at −7.4 %, 0.970 at −14.9 % (0.990 at the
 /// member's own load).
-pub const LOAD_TOLERANCE_LIGHTER: f64 = 0.15;
+pub(crate) const LOAD_TOLERANCE_LIGHTER: f64 = 0.15;
 /// How much heavier than its member a pass's load may be: coverage 1.000 at +14.9 % and at
 /// +29.7 % (the same study).
-pub const LOAD_TOLERANCE_HEAVIER: f64 = 0.30;
+pub(crate) const LOAD_TOLERANCE_HEAVIER: f64 = 0.30;
 /// The most load members a family may have (per speed).
-pub const MAX_LOADS: usize = 20;
+pub(crate) const MAX_LOADS: usize = 20;
 
 /// Car-body masses from `from` to `to` every `step`, as factors of `car_body_mass_kg`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -144,7 +144,7 @@ impl std::fmt::Display for LoadBand {
 
 /// How far a pass showing `shown_kn` is from a member at `member_kn`, as a fraction of the
 /// tolerance on its side (≤ 1: admissible): the heavier side is wider (measured).
-pub fn admissible(member_kn: f64, shown_kn: f64) -> f64 {
+pub(crate) fn admissible(member_kn: f64, shown_kn: f64) -> f64 {
     let off = shown_kn / member_kn - 1.0;
     if off >= 0.0 {
         off / LOAD_TOLERANCE_HEAVIER
@@ -156,7 +156,7 @@ pub fn admissible(member_kn: f64, shown_kn: f64) -> f64 {
 /// The member among `loads_kn` (static wheel loads, kN, increasing) a pass whose record shows
 /// `shown_kn` is compared with: the one it is nearest by [`admissible`], if admissible; else
 /// `Err` with the range the members cover (kN).
-pub fn nearest_load(loads_kn: &[f64], shown_kn: f64) -> Result<usize, [f64; 2]> {
+pub(crate) fn nearest_load(loads_kn: &[f64], shown_kn: f64) -> Result<usize, [f64; 2]> {
     let k = nearest_however_far(loads_kn, shown_kn);
     if admissible(loads_kn[k], shown_kn) <= 1.0 + 1e-12 {
         Ok(k)
@@ -169,7 +169,7 @@ pub fn nearest_load(loads_kn: &[f64], shown_kn: f64) -> Result<usize, [f64; 2]> 
 }
 
 /// The member [`nearest_load`] would take, however far (diagnosis).
-pub fn nearest_however_far(loads_kn: &[f64], shown_kn: f64) -> usize {
+pub(crate) fn nearest_however_far(loads_kn: &[f64], shown_kn: f64) -> usize {
     (0..loads_kn.len())
         .min_by(|&a, &b| {
             admissible(loads_kn[a], shown_kn).total_cmp(&admissible(loads_kn[b], shown_kn))

@@ -115,15 +115,10 @@ fn parse_current(dir: &Path, path: &Path, text: &str) -> Result<Current, BankErr
     })
 }
 
-/// The version directory a bank path designates: `DIR/CURRENT`'s target, or `DIR` itself when
-/// it holds a manifest.
-pub fn resolve_version(dir: &Path) -> Result<PathBuf, BankError> {
-    Ok(resolve(dir)?.version)
-}
-
-/// [`resolve_version`] with the manifest hash `CURRENT` states (none for a version directory
-/// named directly).
-pub fn resolve(dir: &Path) -> Result<Current, BankError> {
+/// The version directory a bank path designates — `DIR/CURRENT`'s target, or `DIR` itself
+/// when it holds a manifest — with the manifest hash `CURRENT` states (none for a version
+/// directory named directly).
+pub(crate) fn resolve(dir: &Path) -> Result<Current, BankError> {
     if let Some(current) = read_current(dir)? {
         return Ok(current);
     }
@@ -140,7 +135,7 @@ pub fn resolve(dir: &Path) -> Result<Current, BankError> {
 
 /// The version a bank path designates and its manifest, checked against the hash `CURRENT`
 /// states (read again once when a writer is between the two files).
-pub fn open_manifest(dir: &Path) -> Result<(PathBuf, Manifest), BankError> {
+pub(crate) fn open_manifest(dir: &Path) -> Result<(PathBuf, Manifest), BankError> {
     let mut attempt = 0;
     loop {
         let current = resolve(dir)?;
@@ -158,7 +153,7 @@ pub fn open_manifest(dir: &Path) -> Result<(PathBuf, Manifest), BankError> {
 }
 
 /// The manifest of a pinned version (a family member), checked against the pin's hash.
-pub fn open_pinned_manifest(current: &Current) -> Result<Manifest, BankError> {
+pub(crate) fn open_pinned_manifest(current: &Current) -> Result<Manifest, BankError> {
     manifest_as_stated(current, "the family manifest pins")
 }
 

@@ -8,8 +8,8 @@ use std::path::Path;
 use std::time::Instant;
 use wheelflat::audit::BankAudit;
 use wheelflat::bank::family::{read_family_manifest, SpeedBand, FAMILY_FILE};
-use wheelflat::bank::info::{parameter_ranges, BankSize};
 use wheelflat::bank::{self, Bank, GenerateOptions, Outcome, StorageFormat};
+use wheelflat::bank::{parameter_ranges, BankSize};
 
 /// `bank generate` (`simulate_missing`) and `bank merge` (not): builds or completes the bank
 /// on a pool of the asked threads, with progress on standard error.
@@ -56,7 +56,7 @@ pub(super) fn generate(a: &GenerateArgs, simulate_missing: bool) -> Result<()> {
     };
     let loads = match &a.loads {
         Some(text) => Some(
-            bank::loads::LoadBand::parse(text, &cal.vehicle)
+            bank::LoadBand::parse(text, &cal.vehicle)
                 .map_err(|e| anyhow::anyhow!("--loads {e}"))?,
         ),
         None => stored.as_ref().and_then(|m| m.loads),
@@ -89,7 +89,7 @@ fn generate_family(
     a: &GenerateArgs,
     cal: &wheelflat::model::CheckedCalibration,
     opts: &GenerateOptions,
-    (band, loads): (SpeedBand, Option<bank::loads::LoadBand>),
+    (band, loads): (SpeedBand, Option<bank::LoadBand>),
     threads: usize,
     pool: &rayon::ThreadPool,
 ) -> Result<()> {
@@ -252,16 +252,16 @@ pub(super) fn verify(dir: &Path) -> Result<()> {
     )
 }
 
-/// `bank prune`: removes old versions ([`bank::prune::prune`]) and says what it did and left.
+/// `bank prune`: removes old versions ([`bank::prune`]) and says what it did and left.
 pub(super) fn prune(dir: &Path, keep: usize) -> Result<()> {
-    let p = bank::prune::prune(dir, keep)
-        .with_context(|| format!("cannot prune bank {}", dir.display()))?;
+    let p =
+        bank::prune(dir, keep).with_context(|| format!("cannot prune bank {}", dir.display()))?;
     print_pruned(dir, &p);
     Ok(())
 }
 
 /// What a prune did and left, a line each.
-pub(super) fn print_pruned(dir: &Path, p: &bank::prune::Pruned) {
+pub(super) fn print_pruned(dir: &Path, p: &bank::Pruned) {
     let name = |p: &Path| {
         p.file_name()
             .map(|n| n.to_string_lossy().to_string())

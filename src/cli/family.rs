@@ -4,7 +4,7 @@
 use anyhow::{Context, Result};
 use std::path::Path;
 use wheelflat::bank::family::{Family, FAMILY_FILE};
-use wheelflat::bank::info::BankSize;
+use wheelflat::bank::BankSize;
 
 /// Whether `dir` is a bank family.
 fn is_family(dir: &Path) -> bool {
@@ -123,12 +123,9 @@ pub(super) fn prune(dir: &Path, keep: usize) -> Result<()> {
     let f = open(dir)?;
     for m in &f.members {
         println!("member {}:", member_words(&f, m).trim());
-        let p = wheelflat::bank::prune::prune_keeping(
-            &m.dir,
-            keep,
-            std::slice::from_ref(&m.current.version),
-        )
-        .with_context(|| format!("cannot prune {}", m.dir.display()))?;
+        let p =
+            wheelflat::bank::prune_keeping(&m.dir, keep, std::slice::from_ref(&m.current.version))
+                .with_context(|| format!("cannot prune {}", m.dir.display()))?;
         super::bank::print_pruned(&m.dir, &p);
     }
     Ok(())

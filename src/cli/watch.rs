@@ -26,7 +26,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 use wheelflat::bank::family::Family;
 use wheelflat::history::Db;
-use wheelflat::identify::family::Members;
+use wheelflat::identify::Members;
 
 /// What marks a recording as a train pass: `NAME.csv` with `NAME` + this beside it.
 const TRIGGERS_SUFFIX: &str = ".triggers.csv";

@@ -22,7 +22,8 @@
 use crate::bank::Parameters;
 use crate::model::calibration::PopulationParams;
 
-pub use crate::bank::neighbours::{nearest, unit_points, NEIGHBOURS};
+pub use crate::bank::neighbours::unit_points;
+pub(crate) use crate::bank::neighbours::{nearest, NEIGHBOURS};
 
 /// The neighbour graph of a bank's instances and each instance's cell extent.
 #[derive(Debug, Clone)]

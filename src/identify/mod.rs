@@ -7,26 +7,26 @@
 
 mod baselines;
 pub(crate) mod buffer;
-pub mod cells;
+pub(crate) mod cells;
 pub(crate) mod detect;
 mod discretisation;
 pub(crate) mod entropy;
 pub mod envelope;
 pub mod falsify;
-pub mod family;
+pub(crate) mod family;
 mod flat_free;
 pub(crate) mod load;
 pub(crate) mod measurement;
 pub(crate) mod pip;
 mod prepare;
-pub mod ranges;
+pub(crate) mod ranges;
 pub mod refine;
 pub mod result;
-pub mod severity;
+pub(crate) mod severity;
 pub(crate) mod sparse;
 mod stages;
 pub mod synth;
-pub mod uncertainty;
+pub(crate) mod uncertainty;
 
 pub use measurement::Measurement;
 pub use result::Identification;
@@ -35,7 +35,7 @@ pub use severity::{FlatVerdict, Severity, SeverityRange};
 use crate::bank::{Bank, BankError, Parameters};
 use crate::model::calibration::IdentificationParams;
 use crate::model::WheelPosition;
-use cells::Cells;
+
 pub use detect::{Detection, DetectionLimit};
 use falsify::{falsify, Resolution};
 use prepare::Prepared;
@@ -46,8 +46,11 @@ use stages::Laps;
 use std::path::PathBuf;
 use std::sync::Mutex;
 use thiserror::Error;
-use uncertainty::CombinedUncertainty;
-pub use uncertainty::ThresholdCurve;
+
+pub use cells::{unit_points, Cells};
+pub use family::Members;
+pub use ranges::wheels_of;
+pub use uncertainty::{CombinedUncertainty, ThresholdCurve};
 
 /// Errors of identification.
 #[derive(Debug, Error)]

@@ -172,7 +172,7 @@ fn narrowest(
 }
 
 /// Shortest interval `[lo, hi]` holding a fraction `p` of sorted samples.
-pub fn shortest_interval(sorted: &[f64], p: f64) -> (f64, f64) {
+pub(crate) fn shortest_interval(sorted: &[f64], p: f64) -> (f64, f64) {
     let n = sorted.len();
     narrowest(n, window(n, p), |i| sorted[i], |j| sorted[j])
 }

@@ -14,7 +14,7 @@ pub(crate) mod integrator;
 pub(crate) mod lanes;
 pub mod response;
 pub(crate) mod schedule;
-pub mod track;
+pub(crate) mod track;
 pub(crate) mod vehicle;
 pub(crate) mod wheel;
 
@@ -26,4 +26,5 @@ pub use integrator::{SimError, Simulator, State, Workspace};
 pub use lanes::LaneWork;
 pub use response::{Record, Response};
 pub use schedule::{Level, Schedule};
+pub use track::{RailSection, Support, TrackModel};
 pub use wheel::WheelPosition;

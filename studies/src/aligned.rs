@@ -26,8 +26,8 @@
 
 use rayon::prelude::*;
 use wheelflat::bank::Parameters;
-use wheelflat::identify::cells::unit_points;
 use wheelflat::identify::result::ParamRanges;
+use wheelflat::identify::unit_points;
 use wheelflat::identify::Identifier;
 use wheelflat::model::calibration::PopulationParams;
 
@@ -321,9 +321,8 @@ pub fn aligned_ranges(
             ],
         ]
     }))?;
-    let wheels = wheelflat::identify::ranges::wheels_of(
-        survivors.iter().map(|s| p.flat_wheel[s.row as usize]),
-    );
+    let wheels =
+        wheelflat::identify::wheels_of(survivors.iter().map(|s| p.flat_wheel[s.row as usize]));
     Some(bounds_to_ranges(
         b,
         &cal.population,

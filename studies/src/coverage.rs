@@ -5,8 +5,8 @@
 use std::path::Path;
 use wheelflat::bank::Population;
 use wheelflat::identify::result::ParamRanges;
-use wheelflat::identify::severity::Severity;
 use wheelflat::identify::synth::{synthesize, Truth};
+use wheelflat::identify::Severity;
 use wheelflat::identify::{Extras, Identifier, IdentifyError, Measurement};
 use wheelflat::model::{CheckedCalibration, Flat};
 

@@ -314,7 +314,7 @@ fn the_stored_neighbour_graph_is_the_one_searched_from_the_stored_parameters() {
 
     // A bank written before the graph was stored: no entry, the reader has none; generate
     // on the up-to-date bank adds it, and then it is the same graph.
-    let mut manifest = bank::version::read_manifest(&version).unwrap();
+    let mut manifest = bank::read_manifest(&version).unwrap();
     manifest.neighbours = None;
     common::write_manifest(&version, &manifest);
     std::fs::remove_file(version.join("neighbours.bin")).unwrap();
@@ -370,7 +370,7 @@ fn an_earlier_neighbour_graph_is_searched_again_and_replaced_by_generate() {
         bytes.extend_from_slice(&v.to_le_bytes());
     }
     std::fs::write(version.join("neighbours.bin"), &bytes).unwrap();
-    let mut manifest = bank::version::read_manifest(&version).unwrap();
+    let mut manifest = bank::read_manifest(&version).unwrap();
     let aux = manifest.neighbours.as_mut().unwrap();
     aux.bytes = bytes.len() as u64;
     aux.sha256 = bank::schema::sha256_hex(&bytes);

@@ -126,7 +126,7 @@ fn batch_mates_sorted_by_first_strike_take_nearly_every_round() {
     // are deterministic (no timing): lane efficiency = lane steps / (lanes × rounds).
     let cal = Calibration::default().check().unwrap();
     let sim = Simulator::new(&cal).unwrap();
-    let population = wheelflat::bank::population::Population::new(&cal.population, 50_000, 0);
+    let population = wheelflat::bank::Population::new(&cal.population, 50_000, 0);
     let mut flats: Vec<Flat> = (30_000..30_064)
         .map(|i| population.instance(i).flat(cal.vehicle.flat_wheel).unwrap())
         .collect();

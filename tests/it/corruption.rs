@@ -108,7 +108,7 @@ fn campaign(opts: &wheelflat::bank::GenerateOptions, cases: usize, seed: u64) {
     let files: Vec<PathBuf> = walk(&pristine)
         .into_iter()
         .map(|p| p.strip_prefix(&pristine).unwrap().to_path_buf())
-        .filter(|p| p != Path::new(wheelflat::bank::lock::LOCK_FILE))
+        .filter(|p| p != Path::new(wheelflat::bank::LOCK_FILE))
         .collect();
     let mut state = seed;
     let (mut refused, mut same, mut kinds) = (0, 0, std::collections::BTreeMap::new());

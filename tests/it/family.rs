@@ -9,8 +9,8 @@ use std::sync::OnceLock;
 use wheelflat::bank::family::{read_family_manifest, Family, SpeedBand, FAMILY_FILE};
 use wheelflat::bank::family_write::{at_speed, generate_family};
 use wheelflat::bank::{GenerateOptions, Outcome, Quiet};
-use wheelflat::identify::family::Members;
 use wheelflat::identify::FlatVerdict;
+use wheelflat::identify::Members;
 use wheelflat::identify::{Extras, Measurement};
 use wheelflat::model::CheckedCalibration;
 use wheelflat::train::{self, TrainFlat, TrainSpec};
@@ -215,9 +215,7 @@ fn readers_keep_the_pinned_members_until_the_whole_family_is_regenerated() {
     let changed = changed.check().unwrap();
     let member = dir.join("speed-48.0");
     wheelflat::bank::generate(&at_speed(&changed, 48.0).unwrap(), &member, &opts, &Quiet).unwrap();
-    let new_current = wheelflat::bank::version::read_current(&member)
-        .unwrap()
-        .unwrap();
+    let new_current = wheelflat::bank::read_current(&member).unwrap().unwrap();
     assert!(!new_current.version.ends_with(format!("v-{}", old_ids[0])));
     // Readers of the family still get the calibration of the whole family, member by member.
     let (family, _) = Family::open(&dir).unwrap();

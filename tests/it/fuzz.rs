@@ -13,7 +13,7 @@
 
 use proptest::prelude::*;
 use std::path::Path;
-use wheelflat::bank::layout::{Layout, ShardLayout};
+use wheelflat::bank::{Layout, ShardLayout};
 use wheelflat::identify::Measurement;
 use wheelflat::model::Calibration;
 
@@ -176,7 +176,7 @@ proptest! {
     fn current_pointer(bytes in input(corpus("current_pointer"))) {
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(dir.path().join("CURRENT"), &bytes).unwrap();
-        if let Ok(Some(c)) = wheelflat::bank::version::read_current(dir.path()) {
+        if let Ok(Some(c)) = wheelflat::bank::read_current(dir.path()) {
             // Whatever it accepts names a directory directly inside the bank.
             prop_assert_eq!(c.version.parent(), Some(dir.path()));
         }

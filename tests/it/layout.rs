@@ -167,7 +167,7 @@ fn a_layout_or_shard_that_does_not_match_is_refused() {
     // A consistent but wrong layout (an offset moved by one value, the manifest updated to
     // match): open trusts the checksum, verify compares it with the footers and refuses it.
     let mut layout =
-        bank::layout::Layout::decode(&layout_path, &good, &manifest_of(&version).bank_id).unwrap();
+        bank::Layout::decode(&layout_path, &good, &manifest_of(&version).bank_id).unwrap();
     layout.shards[1].offsets[9] -= 4;
     let bytes = layout.encode();
     std::fs::write(&layout_path, &bytes).unwrap();

@@ -3,8 +3,8 @@
 //! conservation (energy without damping) and refined runs (dt and mesh convergence).
 //! Every tolerance is stated next to its assertion.
 
-use wheelflat::model::track::{RailSection, Support, TrackModel};
 use wheelflat::model::{Calibration, CheckedCalibration, Flat, Level, Record, Response, Simulator};
+use wheelflat::model::{RailSection, Support, TrackModel};
 
 fn default_cal() -> CheckedCalibration {
     Calibration::default().check().unwrap()

@@ -95,7 +95,7 @@ fn a_second_generator_is_refused_while_the_first_writes() {
 #[test]
 fn tasks_of_a_job_array_share_the_lock_and_exclude_a_whole_bank_run() {
     let dir = tempfile::tempdir().unwrap();
-    let t1 = bank::lock::lock(dir.path(), bank::lock::Access::Shared).unwrap();
+    let t1 = bank::lock(dir.path(), bank::Access::Shared).unwrap();
     let cal = calibration(1.0);
     // A task alongside another task: runs.
     let task = wheelflat::bank::GenerateOptions {

@@ -10,7 +10,7 @@
 //! the population; `first`: the first instances, as one shard file holds them)
 
 use std::time::Instant;
-use wheelflat::bank::population::Population;
+use wheelflat::bank::Population;
 use wheelflat::model::{batch_key, BatchStats, Calibration, Flat, Record, Response, Simulator};
 
 fn run<const B: usize>(

@@ -17,9 +17,9 @@ use wheelflat_studies::study;
 
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
-use wheelflat::identify::family::Members;
-use wheelflat::identify::severity::Severity;
 use wheelflat::identify::synth::{synthesize, Truth};
+use wheelflat::identify::Members;
+use wheelflat::identify::Severity;
 use wheelflat::identify::{Extras, Measurement};
 use wheelflat::model::CheckedCalibration;
 use wheelflat_studies::coverage::{self, judge, method_line, severity_class, Judged};

@@ -6,7 +6,7 @@
 //! calibration, sensor accuracy, measurement additional systematic).
 use std::path::Path;
 use wheelflat::identify::result::ParamRanges;
-use wheelflat::identify::uncertainty::CombinedUncertainty;
+use wheelflat::identify::CombinedUncertainty;
 use wheelflat::identify::{Extras, Identifier};
 use wheelflat::model::calibration::{UncertaintyGroup, UncertaintyKind};
 use wheelflat::model::Flat;

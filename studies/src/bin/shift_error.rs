@@ -9,7 +9,7 @@
 //! - `whole`: delayed by n = round(δ/Δs) whole samples (Δs = v/f_s), against X_p + n·Δs;
 //! - `whole-ratio`: the same, scaled by the flat-free force's ratio T(t)/T(t − n/f_s) where
 //!   that is above 1 kN (the influence line does not move with the impact).
-use wheelflat::identify::uncertainty::CombinedUncertainty;
+use wheelflat::identify::CombinedUncertainty;
 use wheelflat::model::{Calibration, Flat, Record, Simulator};
 
 fn at(r: &[f64], k: isize) -> f64 {

@@ -124,7 +124,7 @@ pub fn write_manifest(version: &Path, manifest: &wheelflat::bank::Manifest) {
     if current.lines().next() == Some(name.as_str()) {
         std::fs::write(
             bank.join("CURRENT"),
-            wheelflat::bank::version::current_text(&name, text.as_bytes()),
+            wheelflat::bank::current_text(&name, text.as_bytes()),
         )
         .unwrap();
     }
