@@ -1,7 +1,7 @@
 //! `wheelflat diagnose`: name a model gap, add the effect, identify again.
 
 use super::args::DiagnoseArgs;
-use super::open_identifier;
+use super::open_measured;
 use super::progress::Progress;
 use anyhow::Result;
 use wheelflat::identify::Extras;
@@ -11,13 +11,7 @@ use wheelflat::report::tables::diagnosis_text;
 /// the verdict, the stages and the ranking.
 pub(super) fn run(a: &DiagnoseArgs) -> Result<()> {
     let i = &a.input;
-    let (identifier, m) = open_identifier(
-        &i.bank,
-        &i.measured,
-        i.calibration.as_deref(),
-        i.speed,
-        true,
-    )?;
+    let (identifier, m) = open_measured(i, true)?;
     // The fits re-simulate at the bank's speed: they see the pass on the bank's time axis.
     let speed = wheelflat::identify::result::SpeedUse {
         pass_km_per_h: m.speed_km_per_h,

@@ -1,7 +1,7 @@
 //! `wheelflat identify` and `wheelflat compare`: one measurement against a bank.
 
 use super::args::{CompareArgs, IdentifyArgs};
-use super::open_identifier;
+use super::open_measured;
 use anyhow::{Context, Result};
 use std::path::Path;
 use wheelflat::identify::synth::Truth;
@@ -18,13 +18,7 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
         a.db.as_deref()
             .map(wheelflat::pass::store::open_db)
             .transpose()?;
-    let (identifier, m) = open_identifier(
-        &i.bank,
-        &i.measured,
-        i.calibration.as_deref(),
-        i.speed,
-        false,
-    )?;
+    let (identifier, m) = open_measured(i, false)?;
     let extras = if a.report {
         Extras {
             baselines: !a.no_baselines,
@@ -99,13 +93,7 @@ pub(super) fn report(id: &Identification, dir: &Path, truth: Option<&Truth>) -> 
 /// given).
 pub(super) fn compare(a: &CompareArgs) -> Result<()> {
     let i = &a.input;
-    let (identifier, m) = open_identifier(
-        &i.bank,
-        &i.measured,
-        i.calibration.as_deref(),
-        i.speed,
-        false,
-    )?;
+    let (identifier, m) = open_measured(i, false)?;
     let truth = match &a.truth {
         Some(p) => {
             let text = super::read_text(p, super::MAX_SMALL_FILE_BYTES, "truth file")?;

@@ -111,6 +111,24 @@ fn create_output_folder(dir: &Path) -> Result<()> {
         .with_context(|| format!("cannot create output folder {}", dir.display()))
 }
 
+/// Opens the bank (or family member) a command's measurement is compared with, and reads the
+/// measurement (`nearest`: the nearest member however far, for diagnosis).
+fn open_measured(
+    i: &args::MeasuredArgs,
+    nearest: bool,
+) -> Result<(
+    wheelflat::identify::Identifier,
+    wheelflat::identify::Measurement,
+)> {
+    Ok(open_identifier(
+        &i.bank,
+        &i.measured,
+        i.calibration.as_deref(),
+        i.speed,
+        nearest,
+    )?)
+}
+
 /// Opens a bank, or the member of a bank family at `speed` (which a family needs; for a
 /// single bank it is checked against the bank's speed when given).
 fn open_bank_at(bank_dir: &Path, speed: Option<f64>) -> Result<Bank> {

@@ -1,6 +1,5 @@
 //! `wheelflat train`: every wheel of a whole train pass, as a table.
 
-use super::create_output_folder;
 use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;
@@ -44,25 +43,18 @@ pub(super) struct TrainArgs {
 pub(super) fn run(a: &TrainArgs) -> Result<()> {
     let mut db = a.db.as_deref().map(train_db::open_db).transpose()?;
     let mut members = super::open_members(&a.bank, None)?;
-    let refine = a
-        .refine
-        .then_some(wheelflat::identify::refine::RefineSettings {
-            simulations: a.refine_simulations,
-            ..Default::default()
-        });
     let pass = train_pass::identify_train(
         &mut members,
         &a.recording,
         &a.triggers,
         a.consist.as_deref(),
-        refine,
+        a.refine.then_some(a.refine_simulations),
     )?;
     if let Some(db) = &mut db {
         let stored = train_pass::store_train(db, &members, &pass, &[&a.recording, &a.triggers])?;
         println!("{}", stored_line(db, &pass, stored));
     }
     let result = &pass.result;
-    create_output_folder(&a.out)?;
     let written = train_pass::write_train(result, &a.out)?;
     print!("{}", wheelflat::report::train::table_text(result));
     let flats = result

@@ -99,18 +99,12 @@ fn identify_one(
     db: Option<&mut Db>,
 ) -> Result<String> {
     if let Some(triggers) = &beside.triggers {
-        let refine = a
-            .refine
-            .then_some(wheelflat::identify::refine::RefineSettings {
-                simulations: a.refine_simulations,
-                ..Default::default()
-            });
         let pass = wheelflat::pass::train::identify_train(
             &mut open.members,
             path,
             triggers,
             beside.consist.as_deref(),
-            refine,
+            a.refine.then_some(a.refine_simulations),
         )?;
         wheelflat::pass::train::write_train(&pass.result, out)?;
         // Stored before the inputs move: a crash between the two stores nothing twice.

@@ -302,7 +302,7 @@ pub fn diagnose(
     opts: &Options,
     observer: &dyn crate::bank::GenerateObserver,
 ) -> Result<Diagnosis, DiagnoseError> {
-    let mut clock = stages::Clock::start();
+    let mut clock = crate::identify::Laps::start_in_seconds();
     let before = locate(identifier, id)?;
     let before_stage = Stage::of(id, &before);
     clock.lap("locate");

@@ -9,35 +9,10 @@ use super::{
     best_bank_instances, fit, library, locate, name, noise, restart, select, Added, DiagnoseError,
     Diagnosis, Located, Naming, Options, Stage,
 };
-use crate::identify::Identifier;
+use crate::identify::{Identifier, Laps};
 use crate::model::{CheckedCalibration, Effect, WheelPosition};
 use rayon::prelude::*;
 use std::path::Path;
-use std::time::Instant;
-
-/// The wall-clock of the stages (s each), named as `timings_s` names them.
-pub(super) struct Clock {
-    clock: Instant,
-    /// (stage, s) in order.
-    pub(super) timings: Vec<(String, f64)>,
-}
-
-impl Clock {
-    /// The clock started.
-    pub(super) fn start() -> Clock {
-        Clock {
-            clock: Instant::now(),
-            timings: Vec::new(),
-        }
-    }
-
-    /// The time since the last lap, as `name`.
-    pub(super) fn lap(&mut self, name: &str) {
-        self.timings
-            .push((name.to_string(), self.clock.elapsed().as_secs_f64()));
-        self.clock = Instant::now();
-    }
-}
 
 /// The flat alone, fitted to the record: the problem it was fitted in, its parameters' bounds,
 /// the fit, the judge of thresholds and strike timing, the wheel, and the samples it leaves
@@ -48,7 +23,6 @@ pub(super) struct FlatOnly<'a> {
     pub(super) best: fit::Fitted,
     pub(super) judge: name::Judge<'a>,
     pub(super) wheel: WheelPosition,
-    pub(super) observed: &'a [fit::Observed],
     pub(super) outside: usize,
 }
 
@@ -126,7 +100,6 @@ pub(super) fn fit_flat_alone<'a>(
         best,
         judge,
         wheel,
-        observed: obs,
         outside,
     })
 }
@@ -169,9 +142,13 @@ pub(super) fn name_effects(
     let bays = cal.track.bays;
     let ctx = name::Context {
         sleepers: (1..bays).collect(),
-        sensors: f.observed.iter().map(|o| o.sensor.clone()).collect(),
-        sensor_positions_m: f
-            .observed
+        sensors: problem
+            .observed()
+            .iter()
+            .map(|o| o.sensor.clone())
+            .collect(),
+        sensor_positions_m: problem
+            .observed()
             .iter()
             .filter_map(|o| cal.sensor_index(&o.sensor))
             .map(|i| cal.sensor_position_m(i))
@@ -276,7 +253,7 @@ pub(super) fn add_and_identify_again(
     flat: [f64; 4],
     opts: &Options,
     dir: &Path,
-    clock: &mut Clock,
+    clock: &mut Laps,
 ) -> Result<Added, DiagnoseError> {
     let (cal, wheel) = (a.cal, a.wheel);
     let bank = a.identifier.bank();

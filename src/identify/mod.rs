@@ -42,7 +42,7 @@ use prepare::Prepared;
 use ranges::ranges_of;
 use result::ParamRanges;
 pub use result::WheelRanges;
-use stages::Laps;
+pub(crate) use stages::Laps;
 use std::path::PathBuf;
 use std::sync::Mutex;
 use thiserror::Error;

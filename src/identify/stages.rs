@@ -24,26 +24,39 @@ use super::{Detection, Extras, Identification, Identifier, IdentifyError, Measur
 use super::{ThresholdCurve, WheelPosition};
 use std::time::Instant;
 
-/// The laps of one identification (ms each), named as `timings_ms` names them.
-pub(super) struct Laps {
+/// The laps of a staged computation, named as its result names them: in ms for an
+/// identification (`timings_ms`), in s for a diagnosis (`timings_s`).
+pub(crate) struct Laps {
     clock: Instant,
-    /// (stage, ms) in order.
-    pub(super) timings: Vec<(String, f64)>,
+    /// Units per second (1000 for ms).
+    per_second: f64,
+    /// (stage, time) in order.
+    pub(crate) timings: Vec<(String, f64)>,
 }
 
 impl Laps {
-    /// The clock started.
-    pub(super) fn start() -> Laps {
+    /// The clock started, laps in ms.
+    pub(crate) fn start() -> Laps {
+        Laps::start_in(1e3)
+    }
+
+    /// The clock started, laps in s.
+    pub(crate) fn start_in_seconds() -> Laps {
+        Laps::start_in(1.0)
+    }
+
+    fn start_in(per_second: f64) -> Laps {
         Laps {
             clock: Instant::now(),
+            per_second,
             timings: Vec::new(),
         }
     }
 
     /// The time since the last lap, as `name`.
-    pub(super) fn lap(&mut self, name: &str) {
-        self.timings
-            .push((name.to_string(), self.clock.elapsed().as_secs_f64() * 1e3));
+    pub(crate) fn lap(&mut self, name: &str) {
+        let t = self.clock.elapsed().as_secs_f64() * self.per_second;
+        self.timings.push((name.to_string(), t));
         self.clock = Instant::now();
     }
 }
