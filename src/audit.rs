@@ -37,6 +37,9 @@ pub enum AuditError {
         /// Why.
         message: String,
     },
+    /// The bank's predictions could not be read as the identification compared them.
+    #[error(transparent)]
+    Identify(#[from] Box<crate::identify::IdentifyError>),
     /// No flat was detected: there is no best instance to locate a gap from.
     #[error("no flat was detected in the measurement: the flat-free model fits it, so there is no model gap to locate")]
     NoFlatDetected,
@@ -315,6 +318,10 @@ struct Judged<'a> {
     all: &'a [f32],
     /// The instance's discretisation allowance (kN).
     allowance: f64,
+    /// The bank's flat-free force there as the identification compared it (kN), and the
+    /// roughness it was judged with: the bounded sources' widening.
+    flat_free: f64,
+    roughness: &'a crate::identify::RoughnessUse,
 }
 
 impl Judged<'_> {
@@ -328,8 +335,12 @@ impl Judged<'_> {
         // where it exceeds the measurement and the measured force's band fails).
         let (t_lo, t_hi) = if residual >= self.thresholds.0 && residual <= self.thresholds.1 {
             self.thresholds
+        } else if self.predicted.abs() > self.measured.abs() {
+            identifier
+                .point_curve(self.roughness, self.measured, self.flat_free, p)
+                .at(self.predicted)
         } else {
-            identifier.band(self.measured, self.predicted, p)
+            self.thresholds
         };
         let extra = widening + self.allowance;
         let (lo, hi) = (t_lo - extra, t_hi + extra);
@@ -374,14 +385,39 @@ pub fn check_against(
     };
     let i = stored.instance as usize;
     let p = id.per_point_probability;
-    // The instance's discretisation allowance: its share of its own largest step over
-    // samples `a..=b` of an axis (as identification reads it from the bank's columns).
-    let share = identifier.discretisation().map_or(0.0, |d| d[i] as f64);
+    // As the identification compared: its average, its roughness.
+    let cmp = id.comparison;
+    let rough = id
+        .roughness
+        .clone()
+        .unwrap_or_else(|| crate::identify::RoughnessUse::none(0.0, 0.0));
+    let own: Vec<Vec<f64>> = stored
+        .forces_kn
+        .iter()
+        .map(|f| {
+            let x: Vec<f64> = f.iter().map(|&v| f64::from(v)).collect();
+            crate::model::average::centred_average(&x, cmp.weights())
+        })
+        .collect();
+    // The instance's discretisation allowance (samples compared one by one): its share of its
+    // own largest step over samples `a..=b` of an axis.
+    let share = identifier
+        .discretisation()
+        .filter(|_| cmp == crate::identify::Comparison::Samples)
+        .map_or(0.0, |d| d[i] as f64);
     let allowance = |axis: usize, a: usize, b: usize| {
         let f = &stored.forces_kn[axis];
         share
             * crate::identify::falsify::largest_step(f[a..=b.min(f.len() - 1)].iter().copied())
                 as f64
+    };
+    let n = bank.instances();
+    let read = |points: &[(usize, usize)]| -> Result<Vec<Vec<f32>>, AuditError> {
+        let mut flat = vec![0.0f32; points.len() * n];
+        identifier
+            .read_compared(points, cmp, &mut flat)
+            .map_err(|e| AuditError::Identify(Box::new(e)))?;
+        Ok(flat.chunks(n.max(1)).map(<[f32]>::to_vec).collect())
     };
     let mut points = Vec::with_capacity(id.eip.len() + id.envelope.len());
     // The neighbours' predictions at the EIP give the instance's own widening.
@@ -390,12 +426,7 @@ pub fn check_against(
         .iter()
         .map(|&e| (axis_of(id.candidates[e].series), id.candidates[e].sample))
         .collect();
-    let columns = bank.read_columns(
-        &cols
-            .iter()
-            .map(|&(a, k)| bank.sample_index(a, k))
-            .collect::<Vec<_>>(),
-    )?;
+    let columns = read(&cols)?;
     for (order, (&e, (&(axis, k), col))) in id.eip.iter().zip(cols.iter().zip(&columns)).enumerate()
     {
         let c = &id.candidates[e];
@@ -404,11 +435,13 @@ pub fn check_against(
             sensor: &axes[axis].name,
             sample: k,
             time_s: c.time_s,
-            predicted: stored.forces_kn[axis][k] as f64,
+            predicted: own[axis][k],
             measured: c.measured_kn,
             thresholds: (c.threshold_low_kn, c.threshold_high_kn),
             all: col,
             allowance: allowance(axis, k.saturating_sub(1), k + 1),
+            flat_free: identifier.flat_free_peak_kn(axis, k, k, cmp),
+            roughness: &rough,
         };
         points.push(judged.check(identifier, i, p));
     }
@@ -417,16 +450,11 @@ pub fn check_against(
     for (j, x) in id.envelope.iter().enumerate() {
         let axis = axis_of(x.series);
         let window = x.sample - x.half_width..=x.sample + x.half_width;
-        let data = bank.read_columns(
-            &window
-                .clone()
-                .map(|k| bank.sample_index(axis, k))
-                .collect::<Vec<_>>(),
-        )?;
+        let data = read(&window.clone().map(|k| (axis, k)).collect::<Vec<_>>())?;
         let refs: Vec<&[f32]> = data.iter().map(Vec::as_slice).collect();
         let max = x.kind == crate::identify::envelope::Extreme::Max;
         let all = envelope::feature(&refs, max);
-        let own = envelope::extreme(window.map(|k| stored.forces_kn[axis][k] as f64), max);
+        let own = envelope::extreme(window.map(|k| own[axis][k]), max);
         let ser = &id.series[x.series];
         let judged = Judged {
             order: id.eip.len() + j + 1,
@@ -438,6 +466,13 @@ pub fn check_against(
             thresholds: (x.threshold_low_kn, x.threshold_high_kn),
             all: &all,
             allowance: allowance(axis, x.sample - x.half_width, x.sample + x.half_width),
+            flat_free: identifier.flat_free_peak_kn(
+                axis,
+                x.sample - x.half_width,
+                x.sample + x.half_width,
+                cmp,
+            ),
+            roughness: &rough,
         };
         let mut check = judged.check(identifier, i, p);
         check.envelope = Some(format!("{} ±{}", x.kind, x.half_width));

@@ -6,7 +6,9 @@
 //!
 //! The table depends only on the bank's contents, so it is derived once and kept beside the
 //! shards as `departures.bin` (written by `bank generate` when it completes a version, or by
-//! the first identification that needs it). It is a cache, not part of the manifest: a file
+//! the first identification that needs it). A rough pass is compared through the 5-sample
+//! binomial average (`identify::compare`): its table, of the averaged predictions against the
+//! averaged flat-free one, is `departures-binomial5.bin`, the same layout. It is a cache, not part of the manifest: a file
 //! that fails its checks (magic, bank id, sizes, CRC-32) is computed again, never trusted.
 //! Layout (little-endian):
 //!
@@ -27,6 +29,9 @@ use std::path::PathBuf;
 /// The table's file name inside a version directory.
 pub(crate) const DEPARTURES_FILE: &str = "departures.bin";
 
+/// The averaged table's file name inside a version directory.
+pub(crate) const AVERAGED_DEPARTURES_FILE: &str = "departures-binomial5.bin";
+
 const MAGIC: &[u8; 8] = b"WFDEPAR1";
 
 /// Columns read at a time while computing (64 × 50,000 × 4 B = 12.8 MB).
@@ -43,22 +48,49 @@ pub struct Departures {
     pub flat_free_kn: Vec<Vec<f32>>,
 }
 
-/// The departures of every instance of `bank`, read column block by column block.
-pub(crate) fn compute(bank: &Bank) -> Result<Departures, BankError> {
+/// The departures of every instance of `bank`, read column block by column block, of the
+/// predictions through the centred average `weights` (`[1.0]`: the samples as stored).
+pub(crate) fn compute(bank: &Bank, weights: &[f64]) -> Result<Departures, BankError> {
     let meta = bank.metadata();
     let n = bank.instances();
+    let h = weights.len() / 2;
     let mut departure_kn = Vec::with_capacity(meta.sensors.len());
     let mut flat_free_kn = Vec::with_capacity(meta.sensors.len());
     let mut buffer = vec![0.0f32; BLOCK_COLUMNS * n];
+    let mut stored = vec![0.0f32; (BLOCK_COLUMNS + 2 * h) * n];
     for (s, axis) in meta.sensors.iter().enumerate() {
-        let template = &meta.flat_free_kn[s];
+        let raw: Vec<f64> = meta.flat_free_kn[s].iter().map(|&g| f64::from(g)).collect();
+        let template: Vec<f32> = crate::model::average::centred_average(&raw, weights)
+            .into_iter()
+            .map(|g| g as f32)
+            .collect();
         let mut dep = vec![0.0f32; n];
         let mut force = vec![0.0f32; n];
         for start in (0..axis.samples).step_by(BLOCK_COLUMNS) {
             let ks: Vec<usize> = (start..(start + BLOCK_COLUMNS).min(axis.samples)).collect();
-            let cols: Vec<usize> = ks.iter().map(|&k| bank.sample_index(s, k)).collect();
-            let block = &mut buffer[..cols.len() * n];
-            bank.read_columns_flat(&cols, block)?;
+            let block = &mut buffer[..ks.len() * n];
+            if h == 0 {
+                let cols: Vec<usize> = ks.iter().map(|&k| bank.sample_index(s, k)).collect();
+                bank.read_columns_flat(&cols, block)?;
+            } else {
+                // The stored samples the block's averages reach, then each average.
+                let lo = start.saturating_sub(h);
+                let hi = (ks[ks.len() - 1] + h).min(axis.samples - 1);
+                let cols: Vec<usize> = (lo..=hi).map(|k| bank.sample_index(s, k)).collect();
+                let reach = &mut stored[..cols.len() * n];
+                bank.read_columns_flat(&cols, reach)?;
+                for (j, &k) in ks.iter().enumerate() {
+                    let (first, w) = crate::model::average::weights_at(k, axis.samples, weights);
+                    let out = &mut block[j * n..(j + 1) * n];
+                    for (i, o) in out.iter_mut().enumerate() {
+                        *o = w
+                            .iter()
+                            .enumerate()
+                            .map(|(t, w)| w * f64::from(reach[(first + t - lo) * n + i]))
+                            .sum::<f64>() as f32;
+                    }
+                }
+            }
             const CHUNK: usize = 4096;
             dep.par_chunks_mut(CHUNK)
                 .zip(force.par_chunks_mut(CHUNK))
@@ -171,23 +203,28 @@ pub(crate) fn check(bytes: &[u8], bank_id: &str, instances: usize) -> Result<(),
     decode(bytes, bank_id, instances, sensors).map(|_| ())
 }
 
-/// Where a bank keeps its table.
-pub(crate) fn path(bank: &Bank) -> PathBuf {
-    bank.dir().join(DEPARTURES_FILE)
+/// Where a bank keeps its table of the predictions through the average `weights`.
+pub(crate) fn path(bank: &Bank, weights: &[f64]) -> PathBuf {
+    bank.dir().join(if weights.len() > 1 {
+        AVERAGED_DEPARTURES_FILE
+    } else {
+        DEPARTURES_FILE
+    })
 }
 
-/// The stored table when it passes its checks; else computed from the bank (about a second for
-/// 50,000 instances) and stored for the next process. A version directory that cannot be
-/// written only costs that second again.
-pub(crate) fn load_or_compute(bank: &Bank) -> Result<Departures, BankError> {
+/// The stored table of the predictions through the average `weights` when it passes its
+/// checks; else computed from the bank (about a second for 50,000 instances; the averaged
+/// one a few) and stored for the next process. A version directory that cannot be written
+/// only costs that time again.
+pub(crate) fn load_or_compute(bank: &Bank, weights: &[f64]) -> Result<Departures, BankError> {
     let meta = bank.metadata();
-    let p = path(bank);
+    let p = path(bank, weights);
     if let Ok(bytes) = std::fs::read(&p) {
         if let Ok(d) = decode(&bytes, &meta.bank_id, bank.instances(), meta.sensors.len()) {
             return Ok(d);
         }
     }
-    let d = compute(bank)?;
+    let d = compute(bank, weights)?;
     // A read-only bank is still usable: the table is a cache.
     let _ = crate::atomic::write_atomically(&p, &encode(&meta.bank_id, &d));
     Ok(d)

@@ -30,6 +30,7 @@ mod observer;
 pub(crate) mod population;
 pub(crate) mod prune;
 pub(crate) mod reader;
+pub mod roughness;
 mod rows;
 pub mod schema;
 pub(crate) mod simulate;

@@ -62,20 +62,7 @@ fn radical_inverse(b: u64, mut i: u64) -> f64 {
     x
 }
 
-/// SplitMix64: the seeded stream behind the population shift, the uncertainty Monte Carlo and
-/// the random subsets.
-fn splitmix64(state: &mut u64) -> u64 {
-    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-/// Uniform [0, 1) with 53 random bits from [`splitmix64`].
-pub(crate) fn uniform(state: &mut u64) -> f64 {
-    (splitmix64(state) >> 11) as f64 / (1u64 << 53) as f64
-}
+pub(crate) use crate::model::random::uniform;
 
 impl Population {
     /// The population of `n` instances over `ranges` (checked by the calibration).

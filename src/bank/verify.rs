@@ -183,18 +183,43 @@ pub fn verify(dir: &Path) -> Result<(Manifest, Vec<VerifyProblem>), BankError> {
     // The departures table is a cache, not in the manifest; when present it must still be this
     // bank's and whole (identification would recompute a damaged one, but a damaged file is
     // worth knowing about).
-    let departures = version.join(super::departures::DEPARTURES_FILE);
-    if let Ok(bytes) = std::fs::read(&departures) {
-        if let Err(message) =
-            super::departures::check(&bytes, &manifest.bank_id, manifest.instances * fold_factor)
-        {
+    for name in [
+        super::departures::DEPARTURES_FILE,
+        super::departures::AVERAGED_DEPARTURES_FILE,
+    ] {
+        let departures = version.join(name);
+        if let Ok(bytes) = std::fs::read(&departures) {
+            if let Err(message) = super::departures::check(
+                &bytes,
+                &manifest.bank_id,
+                manifest.instances * fold_factor,
+            ) {
+                problems.push(VerifyProblem {
+                    path: departures,
+                    message: format!(
+                        "the departures table (a cache; delete it to have it rebuilt): {message}"
+                    ),
+                });
+            }
+        }
+    }
+    // The roughness table is a cache too (bank::roughness): when present, whole and this bank's.
+    let roughness = version.join(super::roughness::ROUGHNESS_FILE);
+    if let Ok(text) = std::fs::read_to_string(&roughness) {
+        if let Err(message) = super::roughness::decode(&text, &manifest.bank_id) {
             problems.push(VerifyProblem {
-                path: departures,
+                path: roughness,
                 message: format!(
-                    "the departures table (a cache; delete it to have it rebuilt): {message}"
+                    "the roughness table (a cache; delete it to have it rebuilt): {message}"
                 ),
             });
         }
+    } else if roughness.exists() {
+        problems.push(VerifyProblem {
+            path: roughness,
+            message: "the roughness table (a cache; delete it to have it rebuilt) is not text"
+                .into(),
+        });
     }
     // The layout: checked as the reader checks it, then every offset against the one the
     // shard's own footer gives (and the decoder confirms).

@@ -322,6 +322,8 @@ pub(super) struct SynthArgs {
     /// per bogie: `1,1,0.6,0.6` (default: all at the calibration's).
     #[arg(long = "bogie-loads", value_delimiter = ',', requires = "train")]
     pub bogie_loads: Vec<f64>,
+    #[command(flatten)]
+    pub surfaces: super::surface_args::SurfaceArgs,
 }
 
 // A bank and a measurement to identify against it.
@@ -489,6 +491,8 @@ pub(super) struct SimulateArgs {
     /// Also write the two wheel–rail contact forces (kN) to the CSV and plot.
     #[arg(long)]
     pub contact: bool,
+    #[command(flatten)]
+    pub surfaces: super::surface_args::SurfaceArgs,
 }
 
 /// Parses `--flat-on BOGIE:WHEEL:L_MM:D_MM:C_MM:XP_M` for a train of `bogies` bogies.

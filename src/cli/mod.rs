@@ -21,6 +21,7 @@ mod history;
 mod identify;
 mod progress;
 mod simulate;
+mod surface_args;
 mod synth;
 mod train;
 mod watch;

@@ -12,12 +12,29 @@ use wheelflat::report::response::{flat_title, plot_response, response_csv, respo
 pub(super) fn run(a: &SimulateArgs) -> Result<()> {
     let cal = load_calibration(a.calibration.as_deref())?;
     let flat = a.flat.flat()?;
+    let spec = a.surfaces.spec()?;
     let started = Instant::now();
-    let sim = Simulator::new(&cal)?;
+    let mut sim = Simulator::new(&cal)?;
+    let mut notes = Vec::new();
+    if !spec.is_empty() {
+        let (surfaces, n) = spec
+            .build(cal.vehicle.wheel_radius_m, cal.rail_length_m())
+            .context("the surfaces asked for")?;
+        sim = sim.with_surfaces(&surfaces, spec.filter)?;
+        notes = n;
+    }
     let resp = sim.run(flat.as_ref(), Record { contact: a.contact })?;
     let elapsed = started.elapsed();
     write_file(&a.out, response_csv(&cal, &resp).as_bytes())?;
     println!("{}", flat_title(flat.as_ref()));
+    for n in &notes {
+        println!(
+            "surface: {} — {} ({:.1} µm rms)",
+            n.wheel.map_or("rail", |w| w.name()),
+            n.source,
+            n.rms_um
+        );
+    }
     print!("{}", response_summary(&cal, &resp));
     println!(
         "simulated {:.3} s of train passage in {:.1} ms ({} coarse + {} fine steps); wrote {}",

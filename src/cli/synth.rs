@@ -4,7 +4,7 @@ use super::args::{parse_effect, parse_flat_on, SynthArgs};
 use super::{load_calibration, write_file};
 use anyhow::{Context, Result};
 use std::path::Path;
-use wheelflat::identify::synth::{synthesize_with_noise, FieldNoise, Synthetic};
+use wheelflat::identify::synth::{synthesize_on, FieldNoise, PassSurfaces, Synthetic};
 use wheelflat::model::CheckedCalibration;
 use wheelflat::report::response::flat_title;
 use wheelflat::train::{default_flats, synthesize_train, TrainSpec};
@@ -27,31 +27,70 @@ pub(super) fn run(a: &SynthArgs) -> Result<()> {
         }
         cal = doc.check().context("the effects given with --effect")?;
     }
+    let spec = a.surfaces.spec()?;
     if a.train {
         if a.noise_scale.to_bits() != 1.0f64.to_bits() || a.noise_ar1.to_bits() != 0.0f64.to_bits()
         {
             anyhow::bail!("--noise-scale and --noise-ar1 are for one bogie; a train recording (--train) carries the table's noise");
         }
-        return train(a, &cal);
+        if !spec.wheel_traces.is_empty()
+            || spec.rail_trace.is_some()
+            || !spec.out_of_round.is_empty()
+        {
+            anyhow::bail!("--wheel-profile, --rail-profile and --out-of-round are for one bogie; a train (--train) takes --roughness (each bogie's wheels drawn anew) and --rail-roughness");
+        }
+        return train(a, &cal, spec);
     }
-    let flat = a
-        .flat
-        .flat()?
-        .context("synth needs a flat (drop --no-flat)")?;
+    // A good wheel (`--no-flat`) too: a rough tread, an out-of-round wheel, a measured profile.
+    let flat = a.flat.flat()?;
     let noise = FieldNoise {
         scale: a.noise_scale,
         ar1: a.noise_ar1,
     };
-    let syn = synthesize_with_noise(&cal, &flat, a.seed, !a.no_trigger, noise)?;
+    let surfaces = if spec.is_empty() {
+        None
+    } else {
+        let (surfaces, notes) = spec
+            .build(cal.vehicle.wheel_radius_m, cal.rail_length_m())
+            .context("the surfaces asked for")?;
+        Some(PassSurfaces {
+            surfaces,
+            filter: spec.filter,
+            notes,
+        })
+    };
+    let syn = synthesize_on(
+        &cal,
+        flat.as_ref(),
+        surfaces.as_ref(),
+        a.seed,
+        !a.no_trigger,
+        noise,
+    )?;
     let truth_path = a
         .truth
         .clone()
         .unwrap_or_else(|| a.out.with_extension("truth.json"));
     write_measurement(&syn, &a.out, &truth_path)?;
+    let what = match &flat {
+        Some(f) => format!("{} (L0 {:.1} mm)", flat_title(Some(f)), syn.truth.l0_mm),
+        None => "a good wheel".to_string(),
+    };
+    let on = syn
+        .truth
+        .surfaces
+        .iter()
+        .map(|n| {
+            format!(
+                " on {}: {} ({:.1} µm rms)",
+                n.wheel.map_or("the rail", |w| w.name()),
+                n.source,
+                n.rms_um
+            )
+        })
+        .collect::<String>();
     println!(
-        "synthetic measurement of {} (L0 {:.1} mm){}, seed {}: wrote {} and {}",
-        flat_title(Some(&flat)),
-        syn.truth.l0_mm,
+        "synthetic measurement of {what}{on}{}, seed {}: wrote {} and {}",
         if cal.effects.is_empty() {
             String::new()
         } else {
@@ -65,7 +104,11 @@ pub(super) fn run(a: &SynthArgs) -> Result<()> {
 }
 
 /// `synth --train`: the recording, its trigger file and the truth.
-fn train(a: &SynthArgs, cal: &CheckedCalibration) -> Result<()> {
+fn train(
+    a: &SynthArgs,
+    cal: &CheckedCalibration,
+    surfaces: wheelflat::model::surface::SurfaceSpec,
+) -> Result<()> {
     let flats = if a.flat_on.is_empty() {
         // The default flats that fit a train of this length (a short train has fewer).
         default_flats()
@@ -103,6 +146,7 @@ fn train(a: &SynthArgs, cal: &CheckedCalibration) -> Result<()> {
     }
     spec.loads = a.bogie_loads.clone();
     spec.speeds_km_per_h = a.bogie_speeds.clone();
+    spec.surfaces = (!surfaces.is_empty()).then_some(surfaces);
     let syn = synthesize_train(cal, &spec)?;
     let triggers = a.out.with_extension("triggers.csv");
     let truth = a

@@ -53,6 +53,8 @@ impl NoiseModel {
                     meas_mean += u.mean();
                     rel_var += u.variance();
                 }
+                // Bounds, not noise: a rough tread's departure is what the diagnosis looks for.
+                (UncertaintyKind::GoodWheelRelative | UncertaintyKind::BoundKn, _) => {}
             }
         }
         NoiseModel {

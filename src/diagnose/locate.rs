@@ -105,22 +105,44 @@ pub fn locate(identifier: &Identifier, id: &Identification) -> Result<Located, A
     let mut sensors = Vec::new();
     let (mut sum2, mut count, mut outside_all, mut expected_all) = (0.0, 0usize, 0usize, 0.0);
     let mut gap2 = 0.0;
+    // As the identification compared: its average, its roughness' bounds.
+    let c = id.comparison;
+    // Through the average (f32, as the bank's columns are read); the samples as stored.
+    let compared = |x: &[f32]| -> Vec<f32> {
+        if c.weights().len() == 1 {
+            return x.to_vec();
+        }
+        let x: Vec<f64> = x.iter().map(|&v| f64::from(v)).collect();
+        crate::model::average::centred_average(&x, c.weights())
+            .into_iter()
+            .map(|v| v as f32)
+            .collect()
+    };
+    let rough = id
+        .roughness
+        .clone()
+        .unwrap_or_else(|| crate::identify::RoughnessUse::none(0.0, 0.0));
     for ser in &id.series {
         let Some(axis) = meta.sensors.iter().position(|a| a.name == ser.sensor) else {
             continue;
         };
-        let g = &stored.forces_kn[axis];
+        let g = compared(&stored.forces_kn[axis]);
+        let near: Vec<Vec<f32>> = neighbours
+            .iter()
+            .map(|n| compared(&n.forces_kn[axis]))
+            .collect();
+        let flat_free = identifier.flat_free(axis, c);
         let time = |k: usize| ser.t0_s + k as f64 / ser.sample_rate_hz;
         let mut residual = Vec::with_capacity(g.len());
         let mut thresholds = Vec::with_capacity(g.len());
         let mut excess = Vec::with_capacity(g.len());
         for (k, (&gk, &y)) in g.iter().zip(&ser.values_kn).enumerate() {
             let r = gk as f64 - y;
-            let spread = neighbours
+            let spread = near
                 .iter()
-                .map(|n| (n.forces_kn[axis][k] - gk).abs() as f64)
+                .map(|n| (n[k] - gk).abs() as f64)
                 .fold(0.0, f64::max);
-            let (lo, hi) = identifier.thresholds(y, p);
+            let (lo, hi) = identifier.point_thresholds(&rough, y, f64::from(flat_free[k]), p);
             let (lo, hi) = (lo - kappa * spread, hi + kappa * spread);
             residual.push(r);
             thresholds.push([lo, hi]);

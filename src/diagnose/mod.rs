@@ -170,10 +170,16 @@ pub enum DiagnoseError {
     Other(String),
 }
 
-/// The measured series on the bank's windows.
-pub fn observed(identifier: &Identifier, id: &Identification) -> Vec<fit::Observed> {
+/// The measured series of identification `id` of `m` on the bank's windows, as recorded (the
+/// diagnosis fits raw simulations to the record's own samples, its noise model per sample).
+pub fn observed(
+    identifier: &Identifier,
+    id: &Identification,
+    m: &crate::identify::Measurement,
+) -> Result<Vec<fit::Observed>, DiagnoseError> {
     let meta = identifier.bank().metadata();
-    id.series
+    Ok(identifier
+        .series_as_recorded(m, id)?
         .iter()
         .filter_map(|s| {
             let axis = meta.sensors.iter().find(|a| a.name == s.sensor)?;
@@ -183,7 +189,7 @@ pub fn observed(identifier: &Identifier, id: &Identification) -> Vec<fit::Observ
                 values_kn: s.values_kn.clone(),
             })
         })
-        .collect()
+        .collect())
 }
 
 /// The `k` bank instances that fit the whole series best (χ² with the sensor factors profiled,
@@ -335,7 +341,7 @@ pub fn diagnose(
             what: "the bank's calibration",
             source,
         })?;
-    let obs = observed(identifier, id);
+    let obs = observed(identifier, id, m)?;
     let flat_only = stages::fit_flat_alone(identifier, &obs, opts, &cal, &out.before)?;
     clock.lap("flat-only fit");
     if flat_only.outside == 0 {

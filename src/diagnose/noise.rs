@@ -138,11 +138,13 @@ pub fn pass_residuals(
     let Some(det) = id.detection.as_ref() else {
         return Ok(Vec::new());
     };
+    // The noise of the record itself: its samples as taken, not the comparison's average.
+    let raw = identifier.series_as_recorded(m, &id)?;
     Ok(det
         .sensors
         .iter()
         .filter_map(|test| {
-            let ser = id.series.iter().find(|s| s.sensor == test.sensor)?;
+            let ser = raw.iter().find(|s| s.sensor == test.sensor)?;
             Some(
                 ser.values_kn
                     .iter()

@@ -47,13 +47,14 @@ impl Identifier {
     }
 
     /// Falsification at `m` points spread evenly over the series (bank axes `used`), equally
-    /// spaced in each, with the thresholds at per-point probability `p`.
+    /// spaced in each, with the thresholds at per-point probability `p` of a pass judged with
+    /// `roughness`.
     pub(super) fn equidistant(
         &self,
         series: &[MeasuredSeries],
         used: &[(usize, usize)],
         m: usize,
-        p: f64,
+        (p, roughness): (f64, &super::RoughnessUse),
     ) -> Result<Falsification, IdentifyError> {
         let mut eq: Vec<(usize, usize)> = Vec::new();
         for (si, ser) in series.iter().enumerate() {
@@ -63,21 +64,27 @@ impl Identifier {
                 eq.push((si, ((j as f64 + 0.5) * len as f64 / share as f64) as usize));
             }
         }
-        let eq_cols: Vec<usize> = eq
+        let c = roughness.comparison();
+        let points: Vec<(usize, usize)> = eq.iter().map(|&(si, k)| (used[si].1, k)).collect();
+        let n = self.bank.instances();
+        let mut flat = vec![0.0f32; points.len() * n];
+        self.read_compared(&points, c, &mut flat)?;
+        let eq_pred: Vec<&[f32]> = flat.chunks(n.max(1)).collect();
+        let flat_free: Vec<f64> = points
             .iter()
-            .map(|&(si, k)| self.bank.sample_index(used[si].1, k))
+            .map(|&(a, k)| f64::from(self.flat_free(a, c)[k]))
             .collect();
-        let eq_pred = self.bank.read_columns(&eq_cols)?;
         let eq_curves: Vec<ThresholdCurve> = eq
             .iter()
-            .map(|&(si, k)| self.uncertainty.curve(series[si].values_kn[k], p))
+            .zip(&flat_free)
+            .map(|(&(si, k), &ff)| self.point_curve(roughness, series[si].values_kn[k], ff, p))
             .collect();
         let eq_points: Vec<Point> = eq
             .iter()
-            .zip(eq_pred.iter().zip(&eq_curves))
-            .map(|(&(si, k), (g, curve))| {
+            .zip(eq_pred.iter().zip(eq_curves.iter().zip(&flat_free)))
+            .map(|(&(si, k), (g, (curve, &ff)))| {
                 let y = series[si].values_kn[k];
-                let (lo, hi) = self.uncertainty.thresholds(y, p);
+                let (lo, hi) = self.point_thresholds(roughness, y, ff, p);
                 Point {
                     predictions: g,
                     measured_kn: y,

@@ -41,8 +41,9 @@
 //! surely detected.
 
 use super::measurement::MeasuredSeries;
+use super::spike::SpikeTest;
+pub(crate) use super::table_bounds::TableBounds;
 use crate::bank::departures::Departures;
-use crate::model::calibration::{IdentificationParams, UncertaintyGroup, UncertaintyKind};
 use serde::{Deserialize, Serialize};
 
 /// The share of an L0 bin's instances that must be surely detected for the bin to count as
@@ -51,58 +52,6 @@ pub(crate) const LIMIT_SHARE: f64 = 0.9;
 
 /// Width of the L0 bins of the detection limit (mm).
 pub(crate) const LIMIT_BIN_MM: f64 = 1.0;
-
-/// The hard bounds the uncertainty table puts on a good wheel's record.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct TableBounds {
-    /// Smallest and largest ratio `measured / predicted` the relative sources allow,
-    /// `1/(1+S_max)` and `1/(1+S_min)`.
-    pub gain: [f64; 2],
-    /// The absolute sources' bound `T_max` (kN).
-    pub absolute_kn: f64,
-    /// The flat-free model's form allowance: absolute part (kN).
-    pub allowance_kn: f64,
-    /// ... and relative part (fraction of the flat-free force).
-    pub allowance_fraction: f64,
-}
-
-impl TableBounds {
-    /// The bounds of the settings' table. `S` combines the sources as the thresholds do
-    /// (model sources minus measurement sources).
-    pub fn of(s: &IdentificationParams) -> TableBounds {
-        let (mut s_min, mut s_max, mut t_max) = (0.0, 0.0, 0.0);
-        for src in &s.uncertainty {
-            match (src.kind, src.group) {
-                (UncertaintyKind::Relative, UncertaintyGroup::Model) => {
-                    s_min += src.min;
-                    s_max += src.max;
-                }
-                (UncertaintyKind::Relative, UncertaintyGroup::Measurement) => {
-                    s_min -= src.max;
-                    s_max -= src.min;
-                }
-                (UncertaintyKind::AbsoluteKn, _) => t_max += src.min.abs().max(src.max.abs()),
-            }
-        }
-        // A table whose relative sources reach −100 % allows any gain up from 1/(1+S_max).
-        let high = if 1.0 + s_min > 1e-6 {
-            1.0 / (1.0 + s_min)
-        } else {
-            f64::INFINITY
-        };
-        TableBounds {
-            gain: [1.0 / (1.0 + s_max).max(1e-6), high],
-            absolute_kn: t_max,
-            allowance_kn: s.detection_allowance_kn,
-            allowance_fraction: s.detection_allowance_fraction,
-        }
-    }
-
-    /// The bound on `|y − a·g|` at a sample whose flat-free force is `g_kn`, for gain `a`.
-    pub fn bound_kn(&self, gain: f64, g_kn: f64) -> f64 {
-        self.absolute_kn + self.allowance_kn + self.allowance_fraction * gain * g_kn.abs()
-    }
-}
 
 /// The flat-free test of one sensor.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -192,6 +141,11 @@ pub struct Detection {
     /// The detection limit, given with every "no flat detected".
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub limit: Option<DetectionLimit>,
+    /// The strike test on the record as taken, when the bank compares through an average
+    /// (`B₅`, [`super::compare`]; [`SpikeTest`]). A flat is detected when either test falsifies
+    /// the good wheel.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spike: Option<SpikeTest>,
 }
 
 impl Detection {
@@ -276,6 +230,7 @@ pub(crate) fn detect(
         samples: series.iter().map(|s| s.values_kn.len()).sum(),
         sensors,
         limit: None,
+        spike: None,
     }
 }
 
@@ -284,7 +239,12 @@ pub(crate) fn surely_detected(d: &Departures, axes: &[usize], i: usize, b: &Tabl
     axes.iter().any(|&s| {
         let dep = f64::from(d.departure_kn[s][i]);
         let force = f64::from(d.flat_free_kn[s][i]);
-        b.gain[0] * dep - b.allowance_fraction * force - b.allowance_kn - 2.0 * b.absolute_kn > 0.0
+        b.gain[0] * dep
+            - b.fraction() * force
+            - b.allowance_kn
+            - 2.0 * b.absolute_kn
+            - 2.0 * b.bound_kn
+            > 0.0
     })
 }
 
@@ -315,9 +275,10 @@ pub(crate) fn falsified_by_departure(
                 |m, x| if x.0 < m.0 { x } else { m },
             );
         let shown = t.gain * (1.0 - model_form_fraction) * f64::from(least)
-            - b.allowance_fraction * t.gain * f64::from(at)
+            - b.fraction() * t.gain * f64::from(at)
             - b.allowance_kn
-            - b.absolute_kn;
+            - b.absolute_kn
+            - b.bound_kn;
         shown > t.departure_kn
     })
 }
@@ -400,6 +361,7 @@ pub(crate) fn limit_of(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::calibration::IdentificationParams;
 
     fn bounds() -> TableBounds {
         TableBounds::of(&IdentificationParams::default())

@@ -19,7 +19,7 @@
 
 use super::falsify::Point;
 use super::measurement::MeasuredSeries;
-use super::uncertainty::{CombinedUncertainty, ThresholdCurve};
+use super::uncertainty::ThresholdCurve;
 use serde::{Deserialize, Serialize};
 
 /// Which extreme of its window an envelope point compares. Written as `max` or `min`.
@@ -125,15 +125,17 @@ pub fn measured_feature(values: &[f64], centre: usize, half_width: usize, max: b
     )
 }
 
-/// The envelope points of a measurement with their features, thresholds and threshold curves
-/// at per-point probability `p`: `(reported, instance features, curves)`, two per window
-/// (max, then min). `columns` holds the window's `2w + 1` bank columns, window after window.
+/// The envelope points of a measurement with their features, thresholds and threshold curves:
+/// `(reported, instance features, curves)`, two per window (max, then min). `columns` holds
+/// the window's `2w + 1` bank columns, window after window; `flat_free` the bank's largest
+/// flat-free force over each window, and `judge(y, ff)` the thresholds and threshold curve of
+/// a point measured at `y` where the flat-free force is `ff`.
+#[allow(clippy::type_complexity)]
 pub fn points(
     series: &[MeasuredSeries],
     centres: &[(usize, usize)],
     half_width: usize,
-    uncertainty: &CombinedUncertainty,
-    p: f64,
+    (judge, flat_free): (&dyn Fn(f64, f64) -> ((f64, f64), ThresholdCurve), &[f64]),
     columns: &[&[f32]],
 ) -> (Vec<EnvelopePoint>, Vec<Vec<f32>>, Vec<ThresholdCurve>) {
     let mut reported = Vec::with_capacity(2 * centres.len());
@@ -144,7 +146,7 @@ pub fn points(
         let cols = &columns[c * per..(c + 1) * per];
         for max in [true, false] {
             let y = measured_feature(&series[si].values_kn, k, half_width, max);
-            let (lo, hi) = uncertainty.thresholds(y, p);
+            let ((lo, hi), curve) = judge(y, flat_free[c]);
             reported.push(EnvelopePoint {
                 series: si,
                 sample: k,
@@ -155,7 +157,7 @@ pub fn points(
                 threshold_high_kn: hi,
             });
             features.push(feature(cols, max));
-            curves.push(uncertainty.curve(y, p));
+            curves.push(curve);
         }
     }
     (reported, features, curves)

@@ -2,6 +2,7 @@
 //! ([`super::detect`]), its detection limit from the bank's departures table, and the answer of
 //! a pass in which no flat is detected. `identify`, `watch` and `train` all come through here.
 
+use super::compare::Comparison;
 use super::detect::{self, Detection, DetectionLimit, WheelLimit};
 use super::ranges::population_ranges;
 use super::result::{Alignment, MeasuredSeries, SpeedUse};
@@ -12,32 +13,48 @@ use std::sync::Arc;
 
 impl Identifier {
     /// The detection step over a pass's series on the bank's windows (`axes[i]` is series i's
-    /// bank axis): milliseconds, no bank column is read.
-    pub(super) fn detect(&self, axes: &[usize], series: &[MeasuredSeries]) -> Detection {
-        let meta = self.bank.metadata();
-        let templates: Vec<&[f32]> = axes
-            .iter()
-            .map(|&a| meta.flat_free_kn[a].as_slice())
-            .collect();
-        detect::detect(series, &templates, self.bounds)
+    /// bank axis), the series as comparison `c` sees them: milliseconds, no bank column is
+    /// read.
+    pub(super) fn detect(
+        &self,
+        axes: &[usize],
+        series: &[MeasuredSeries],
+        bounds: detect::TableBounds,
+        c: Comparison,
+    ) -> Detection {
+        let templates: Vec<&[f32]> = axes.iter().map(|&a| self.flat_free(a, c)).collect();
+        detect::detect(series, &templates, bounds)
     }
 
-    /// The bank's departures table (read from its file, or computed and stored on first use;
-    /// kept for the next pass).
-    pub fn departures(&self) -> Result<Arc<Departures>, IdentifyError> {
-        let mut slot = self.departures.lock().unwrap_or_else(|e| e.into_inner());
+    /// The bank's departures table of comparison `c` (read from its file, or computed and
+    /// stored on first use; kept for the next pass).
+    pub fn departures(&self, c: Comparison) -> Result<Arc<Departures>, IdentifyError> {
+        let slot = &self.departures[usize::from(c == Comparison::Binomial5)];
+        let mut slot = slot.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(d) = slot.as_ref() {
             return Ok(Arc::clone(d));
         }
-        let d = Arc::new(departures::load_or_compute(&self.bank)?);
+        let d = Arc::new(departures::load_or_compute(&self.bank, c.weights())?);
         *slot = Some(Arc::clone(&d));
         Ok(d)
     }
 
-    /// The detection limit of a pass through the bank axes `axes` ([`DetectionLimit`]).
-    pub fn detection_limit(&self, axes: &[usize]) -> Result<DetectionLimit, IdentifyError> {
-        let d = self.departures()?;
-        let detected = detect::detected(&d, axes, &self.bounds);
+    /// The detection limit of a pass through the bank axes `axes` judged with `bounds` (the
+    /// table's and the pass's roughness; [`DetectionLimit`]), detection comparing through the
+    /// average as it does.
+    pub fn detection_limit(
+        &self,
+        axes: &[usize],
+        bounds: &detect::TableBounds,
+    ) -> Result<DetectionLimit, IdentifyError> {
+        // The detection compares through the average unless the wheels are stated round.
+        let c = if self.settings.round_wheels_stated() {
+            Comparison::Samples
+        } else {
+            Comparison::Binomial5
+        };
+        let d = self.departures(c)?;
+        let detected = detect::detected(&d, axes, bounds);
         let mut limit = detect::limit_of(&self.params.l0_mm, &detected, |_| true);
         let codes = &self.params.flat_wheel;
         if codes.iter().any(|&c| c != codes[0]) {
@@ -63,13 +80,13 @@ impl Identifier {
         &self,
         cms: Vec<u32>,
         axes: &[usize],
-        detection: &Detection,
+        (detection, c): (&Detection, Comparison),
     ) -> Result<(Vec<u32>, bool), IdentifyError> {
         let s = &self.settings;
         if !s.falsify_at_departures {
             return Ok((cms, false));
         }
-        let d = self.departures()?;
+        let d = self.departures(c)?;
         let sensors: Vec<(usize, &detect::SensorTest)> =
             axes.iter().copied().zip(&detection.sensors).collect();
         let resolution = self.resolution();
@@ -80,7 +97,7 @@ impl Identifier {
                 i,
                 cell,
                 &sensors,
-                &self.bounds,
+                &detection.bounds,
                 s.departure_model_form_fraction,
             )
         };
@@ -109,13 +126,13 @@ impl Identifier {
         &self,
         m: &Measurement,
         (alignment, series): (Alignment, Vec<MeasuredSeries>),
-        mut detection: Detection,
+        (mut detection, roughness): (Detection, super::RoughnessUse),
         load: Option<super::load::LoadEstimate>,
         axes: &[usize],
         mut timings_ms: Vec<(String, f64)>,
     ) -> Result<Identification, IdentifyError> {
         let started = std::time::Instant::now();
-        let limit = self.detection_limit(axes)?;
+        let limit = self.detection_limit(axes, &detection.bounds)?;
         let s = &self.settings;
         let meta = self.bank.metadata();
         let worst = detection.worst();
@@ -195,6 +212,8 @@ impl Identifier {
             model_class_refuted: false,
             below_population: false,
             detection: Some(detection),
+            comparison: roughness.comparison(),
+            roughness: Some(roughness),
             summary,
             maintenance_hint: hint,
             severity,

@@ -166,7 +166,13 @@ impl super::Identifier {
     ) -> Result<Option<LoadEstimate>, super::IdentifyError> {
         let prepared = self.prepare(m, sensors)?;
         let axes: Vec<usize> = prepared.used.iter().map(|&(_, bi)| bi).collect();
-        Ok(self.load_of(&self.detect(&axes, &prepared.series)))
+        // The gains alone decide the load: the roughness bound does not change them.
+        Ok(self.load_of(&self.detect(
+            &axes,
+            &prepared.series,
+            self.bounds,
+            super::Comparison::Samples,
+        )))
     }
 
     /// Puts a pass's series (on the bank axes `axes`) on the bank's load. A pass heavier than

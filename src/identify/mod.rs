@@ -8,6 +8,7 @@
 mod baselines;
 pub(crate) mod buffer;
 pub(crate) mod cells;
+pub mod compare;
 pub(crate) mod detect;
 mod discretisation;
 pub(crate) mod entropy;
@@ -22,10 +23,13 @@ mod prepare;
 pub(crate) mod ranges;
 pub mod refine;
 pub mod result;
+pub mod roughness;
 pub(crate) mod severity;
 pub(crate) mod sparse;
+pub(crate) mod spike;
 mod stages;
 pub mod synth;
+pub(crate) mod table_bounds;
 pub(crate) mod uncertainty;
 
 pub use measurement::Measurement;
@@ -36,12 +40,15 @@ use crate::bank::{Bank, BankError, Parameters};
 use crate::model::calibration::IdentificationParams;
 use crate::model::WheelPosition;
 
+pub use compare::Comparison;
 pub use detect::{Detection, DetectionLimit};
 use falsify::{falsify, Resolution};
 use prepare::Prepared;
 use ranges::ranges_of;
 use result::ParamRanges;
 pub use result::WheelRanges;
+pub use roughness::RoughnessUse;
+pub use spike::SpikeTest;
 pub(crate) use stages::Laps;
 use std::path::PathBuf;
 use std::sync::Mutex;
@@ -149,10 +156,14 @@ pub struct Identifier {
     discretisation: Vec<f32>,
     buffers: Mutex<buffer::HugeBuffer>,
     bin_buffers: Mutex<buffer::HugeBuffer>,
-    /// The bank's departures table, loaded when a pass first needs its detection limit.
-    departures: Mutex<Option<std::sync::Arc<crate::bank::departures::Departures>>>,
+    /// The bank's departures tables (samples, averaged), loaded when a pass first needs one.
+    departures: [Mutex<Option<std::sync::Arc<crate::bank::departures::Departures>>>; 2],
+    /// The bank's flat-free predictions through the average, per axis ([`compare`]).
+    flat_free_averaged: Vec<Vec<f32>>,
     /// The table's level factor per number of sensors ([`load::level_factor`]), drawn once.
     load_levels: Mutex<std::collections::HashMap<usize, (f64, [f64; 2])>>,
+    /// The bank's roughness table, loaded when a pass first needs it ([`roughness`]).
+    roughness: Mutex<Option<std::sync::Arc<crate::bank::roughness::RoughnessTable>>>,
 }
 
 impl Identifier {
@@ -193,6 +204,7 @@ impl Identifier {
         let uncertainty = CombinedUncertainty::new(&settings);
         let bounds = detect::TableBounds::of(&settings);
         let discretisation = discretisation::shares(&settings, &params, &bank);
+        let flat_free_averaged = compare::averaged_templates(&bank.metadata().flat_free_kn);
         Identifier {
             bank,
             params,
@@ -203,8 +215,10 @@ impl Identifier {
             discretisation,
             buffers: Mutex::new(buffer::HugeBuffer::default()),
             bin_buffers: Mutex::new(buffer::HugeBuffer::default()),
-            departures: Mutex::new(None),
+            departures: [Mutex::new(None), Mutex::new(None)],
+            flat_free_averaged,
             load_levels: Mutex::new(std::collections::HashMap::new()),
+            roughness: Mutex::new(None),
         }
     }
 
@@ -221,6 +235,12 @@ impl Identifier {
     /// The settings in use.
     pub fn settings(&self) -> &IdentificationParams {
         &self.settings
+    }
+
+    /// The table's hard bounds a good wheel's record stays within ([`detect::TableBounds`];
+    /// a pass adds its roughness, [`RoughnessUse::bounds`]).
+    pub fn table_bounds(&self) -> detect::TableBounds {
+        self.bounds
     }
 
     /// Thresholds `[low, high]` on `prediction − measurement` (kN) where the measured force is
@@ -244,6 +264,46 @@ impl Identifier {
     /// ([`ThresholdCurve`]), at per-point probability `p`.
     pub fn threshold_curve(&self, y_kn: f64, p: f64) -> ThresholdCurve {
         self.uncertainty.curve(y_kn, p)
+    }
+
+    /// The bank's flat-free prediction of bank axis `axis` at its samples `from..=to` as
+    /// comparison `c` sees it (kN), the largest magnitude: what the bounded sources (a rough
+    /// tread or rail) scale with at a comparison point or window.
+    pub fn flat_free_peak_kn(&self, axis: usize, from: usize, to: usize, c: Comparison) -> f64 {
+        let t = self.flat_free(axis, c);
+        let last = t.len().saturating_sub(1);
+        t[from.min(last)..=to.min(last)]
+            .iter()
+            .fold(0.0f64, |m, &g| m.max(f64::from(g).abs()))
+    }
+
+    /// The threshold curve of a point measured at `y_kn` whose flat-free prediction is
+    /// `flat_free_kn`, in a pass judged with `roughness`: the table's curve widened by its
+    /// bounded sources and by the roughness' bound there.
+    pub fn point_curve(
+        &self,
+        roughness: &RoughnessUse,
+        y_kn: f64,
+        flat_free_kn: f64,
+        p: f64,
+    ) -> ThresholdCurve {
+        let (a, b) = self.uncertainty.good_wheel_widening(flat_free_kn);
+        let w = roughness.widening_kn(flat_free_kn);
+        self.uncertainty.curve(y_kn, p).widened((a - w, b + w))
+    }
+
+    /// The thresholds of a point measured at `y_kn` whose flat-free prediction is
+    /// `flat_free_kn`, in a pass judged with `roughness` (as [`Identifier::point_curve`]).
+    pub fn point_thresholds(
+        &self,
+        roughness: &RoughnessUse,
+        y_kn: f64,
+        flat_free_kn: f64,
+        p: f64,
+    ) -> (f64, f64) {
+        let (lo, hi) = self.uncertainty.thresholds_at(y_kn, flat_free_kn, p);
+        let w = roughness.widening_kn(flat_free_kn);
+        (lo - w, hi + w)
     }
 
     /// The bank's resolution as falsification uses it (`None` when switched off).
@@ -296,41 +356,87 @@ impl Identifier {
             alignment,
             mut series,
             cands,
+            hf_kn,
+            hf_peaks,
         } = self.prepare(m, sensors)?;
         let axes: Vec<usize> = used.iter().map(|&(_, bi)| bi).collect();
+        // The roughness the pass is judged with, the bounds it gives, and how it is compared.
+        let roughness = self.roughness_use(hf_kn)?;
+        let bounds = roughness.bounds(self.bounds);
+        let comparison = roughness.comparison();
         // The load the record shows, and the record put on the bank's load (load::at_bank_load).
-        let load = self.load_of(&self.detect(&axes, &series));
+        let load = self.load_of(&self.detect(&axes, &series, self.bounds, Comparison::Samples));
         if let Some(l) = load.as_ref().filter(|_| !extras.as_recorded) {
             self.at_bank_load(&axes, &mut series, l);
         }
-        let detection = self.detect(&axes, &series);
+        // Detection compares through the average, with the strike test on the record as taken;
+        // wheels stated round, sample by sample as every pass did before roughness was
+        // allowed for.
+        let averaged = Comparison::Binomial5.series(&series);
+        let stated_round = self.settings.round_wheels_stated();
+        let detection = if stated_round {
+            self.detect(&axes, &series, bounds, Comparison::Samples)
+        } else {
+            let mut d = self.detect(&axes, &averaged, bounds, Comparison::Binomial5);
+            let names: Vec<String> = series.iter().map(|s| s.sensor.clone()).collect();
+            let level = hf_kn.max(roughness.noise_hf_kn);
+            let spike = SpikeTest::of(&names, &hf_peaks, level);
+            d.flat_detected |= spike.flat_detected;
+            d.spike = Some(spike);
+            d
+        };
         laps.lap("detection");
         if !detection.flat_detected {
-            return self.no_flat(m, (alignment, series), detection, load, &axes, laps.timings);
+            return self.no_flat(
+                m,
+                (alignment, series),
+                (detection, roughness),
+                load,
+                &axes,
+                laps.timings,
+            );
         }
+        // Sizing compares as the roughness says: the departure rule with that comparison's test.
+        let (series, cands, rule) = match comparison {
+            Comparison::Binomial5 => {
+                let cands = self.candidates(&averaged);
+                (averaged, cands, detection.clone())
+            }
+            Comparison::Samples if stated_round => {
+                let rule = detection.clone();
+                (series, cands, rule)
+            }
+            Comparison::Samples => {
+                let rule = self.detect(&axes, &series, bounds, Comparison::Samples);
+                (series, cands, rule)
+            }
+        };
         let parts = stages::Prepared {
             alignment,
             series,
             load,
             detection,
+            rule,
         };
         let z = stages::Sizing {
             m,
             extras,
             used: &used,
             cands: &cands,
+            roughness: &roughness,
+            comparison,
         };
         let mut buffer = self.buffers.lock().unwrap_or_else(|e| e.into_inner());
         let read = self.read_predictions(&z, &parts.series, &mut buffer, &mut laps)?;
         let mut bin_buffer = self.bin_buffers.lock().unwrap_or_else(|e| e.into_inner());
-        let selected = self.select_points(&read, &mut bin_buffer, &mut laps)?;
+        let selected = self.select_points(&z, &read, &mut bin_buffer, &mut laps)?;
         let judged = self.judge(
             &z,
             &parts.series,
             &read,
             &selected,
             &axes,
-            &parts.detection,
+            &parts.rule,
             &mut laps,
         )?;
         self.assemble(&z, &read, selected, judged, parts, laps)

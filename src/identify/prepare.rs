@@ -15,6 +15,12 @@ pub(super) struct Prepared {
     pub(super) series: Vec<MeasuredSeries>,
     /// Candidate points: (series, sample, PIP order).
     pub(super) cands: Vec<(usize, usize, usize)>,
+    /// The record's high-frequency level (kN; [`super::roughness`]): the median over the
+    /// sensors used of the robust scale of `x − B₅x` over their loaded samples.
+    pub(super) hf_kn: f64,
+    /// Per sensor used, the record's largest high-frequency value where a wheel is near (kN;
+    /// [`crate::bank::roughness::hf_peak`]): detection's strike test.
+    pub(super) hf_peaks: Vec<f64>,
 }
 
 impl Identifier {
@@ -27,10 +33,8 @@ impl Identifier {
     ) -> Result<Prepared, IdentifyError> {
         let meta = self.bank.metadata();
         let cal = &meta.calibration;
-        let s = &self.settings;
         // A pass at another speed than the bank's is put on the bank's time axis first.
         let m = &*m.at_bank_speed(cal.run.speed_km_per_h)?;
-        let distance = s.pip_distance;
 
         // Sensors: those in the file (and asked for), each must be in the bank.
         let mut used: Vec<(usize, usize)> = Vec::new(); // (measurement index, bank axis index)
@@ -105,32 +109,83 @@ impl Identifier {
             }
         };
         let mut series = Vec::with_capacity(used.len());
+        let mut peaks = Vec::with_capacity(used.len());
+        let mut hf = Vec::with_capacity(used.len());
         for &(mi, bi) in &used {
             let axis = &meta.sensors[bi];
+            let values_kn = m.on_window(mi, axis, alignment.shift_s)?;
+            let template: Vec<f64> = meta.flat_free_kn[bi]
+                .iter()
+                .map(|&g| f64::from(g))
+                .collect();
+            hf.push(crate::bank::roughness::hf_level(&values_kn, &template));
+            peaks.push(crate::bank::roughness::hf_peak(&values_kn, &template));
             series.push(MeasuredSeries {
                 sensor: axis.name.clone(),
                 t0_s: axis.t0_s,
                 sample_rate_hz: axis.sample_rate_hz,
-                values_kn: m.on_window(mi, axis, alignment.shift_s)?,
+                values_kn,
             });
         }
+        hf.sort_by(f64::total_cmp);
+        let hf_kn = hf[hf.len() / 2];
 
-        // PIPs → candidate points.
-        let mut cands: Vec<(usize, usize, usize)> = Vec::new(); // (series, sample, pip order)
+        let cands = self.candidates(&series);
+        Ok(Prepared {
+            used,
+            alignment,
+            series,
+            cands,
+            hf_kn,
+            hf_peaks: peaks,
+        })
+    }
+
+    /// The candidate points of `series`: each one's PIPs, `(series, sample, PIP order)`.
+    pub(super) fn candidates(&self, series: &[MeasuredSeries]) -> Vec<(usize, usize, usize)> {
+        let s = &self.settings;
+        let mut cands = Vec::new();
         for (si, ser) in series.iter().enumerate() {
             for (order, k) in
-                perceptually_important_points(&ser.values_kn, s.pips_per_series, distance)
+                perceptually_important_points(&ser.values_kn, s.pips_per_series, s.pip_distance)
                     .into_iter()
                     .enumerate()
             {
                 cands.push((si, k, order));
             }
         }
-        Ok(Prepared {
-            used,
-            alignment,
-            series,
-            cands,
-        })
+        cands
+    }
+
+    /// The measured series of identification `id` of `m` as recorded: the same sensors on the
+    /// bank's windows at the same alignment, without the comparison's average (and not put on
+    /// the bank's load) — what a noise estimate reads.
+    pub fn series_as_recorded(
+        &self,
+        m: &Measurement,
+        id: &crate::identify::Identification,
+    ) -> Result<Vec<MeasuredSeries>, IdentifyError> {
+        let meta = self.bank.metadata();
+        let raw = m.at_bank_speed(meta.calibration.run.speed_km_per_h)?;
+        id.series
+            .iter()
+            .map(|s| {
+                let axis = meta.sensors.iter().find(|a| a.name == s.sensor);
+                let mi = raw.sensors.iter().position(|n| *n == s.sensor);
+                let (Some(axis), Some(mi)) = (axis, mi) else {
+                    return Err(IdentifyError::Sensors {
+                        path: m.path.clone(),
+                        message: format!(
+                            "sensor `{}` of the identification is not in the record",
+                            s.sensor
+                        ),
+                    });
+                };
+                Ok(MeasuredSeries {
+                    values_kn: raw.on_window(mi, axis, id.alignment.shift_s)?,
+                    ..s.clone()
+                })
+            })
+            .collect()
     }
 }

@@ -324,6 +324,15 @@ pub struct Identification {
     /// The detection step run before sizing (absent in results written before it existed).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub detection: Option<super::detect::Detection>,
+    /// The rough treads and rail the pass was judged with (absent in results written before
+    /// they were allowed for; [`super::roughness`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub roughness: Option<super::roughness::RoughnessUse>,
+    /// How the series (as stored here) met the bank's predictions: sample by sample, or
+    /// through the 5-sample binomial average for a pass judged as rough ([`super::compare`];
+    /// absent in results written before: sample by sample).
+    #[serde(default)]
+    pub comparison: super::compare::Comparison,
     /// One-paragraph verdict for people.
     pub summary: String,
     /// Maintenance hint (severity rule stated).

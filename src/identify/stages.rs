@@ -71,6 +71,10 @@ pub(super) struct Sizing<'a> {
     pub(super) used: &'a [(usize, usize)],
     /// The PIP candidates: (series, sample, PIP order).
     pub(super) cands: &'a [(usize, usize, usize)],
+    /// The roughness the pass is judged with.
+    pub(super) roughness: &'a super::RoughnessUse,
+    /// How its series meet the bank's predictions.
+    pub(super) comparison: super::Comparison,
 }
 
 /// Stage 1's outcome: the predictions read, and the envelope windows they include.
@@ -83,6 +87,9 @@ pub(super) struct Read<'b> {
     pub(super) centres: Vec<(usize, usize)>,
     /// The measured force at each candidate (kN).
     pub(super) measured: Vec<f64>,
+    /// The bank's flat-free prediction at each candidate (kN): what the bounded sources
+    /// scale with.
+    pub(super) flat_free: Vec<f64>,
 }
 
 /// Stage 2's outcome: the EIP and what the selection binned.
@@ -129,6 +136,8 @@ pub(super) struct Prepared {
     pub(super) load: Option<super::load::LoadEstimate>,
     /// Detection's answer.
     pub(super) detection: Detection,
+    /// The detection test of the sizing's comparison, which the departure rule judges with.
+    pub(super) rule: Detection,
 }
 
 impl Identifier {
@@ -141,12 +150,11 @@ impl Identifier {
         buffer: &'b mut HugeBuffer,
         laps: &mut Laps,
     ) -> Result<Read<'b>, IdentifyError> {
-        let meta = self.bank.metadata();
         let hw = self.settings.envelope_half_width_samples;
         let template: Vec<&[f32]> = z
             .used
             .iter()
-            .map(|&(_, bi)| meta.flat_free_kn[bi].as_slice())
+            .map(|&(_, bi)| self.flat_free(bi, z.comparison))
             .collect();
         let centres = envelope::windows(
             series,
@@ -155,15 +163,15 @@ impl Identifier {
             hw,
         );
         laps.lap("align and pip");
-        let cols: Vec<usize> = z
+        let cols: Vec<(usize, usize)> = z
             .cands
             .iter()
-            .map(|&(si, k, _)| self.bank.sample_index(z.used[si].1, k))
+            .map(|&(si, k, _)| (z.used[si].1, k))
             .chain(
                 centres
                     .iter()
                     .flat_map(|&(si, k)| (k - hw..=k + hw).map(move |j| (si, j)))
-                    .map(|(si, j)| self.bank.sample_index(z.used[si].1, j)),
+                    .map(|(si, j)| (z.used[si].1, j)),
             )
             .collect();
         let n = self.bank.instances();
@@ -174,7 +182,7 @@ impl Identifier {
                 mb: (cols.len() * n * 4) >> 20,
                 source,
             })?;
-        self.bank.read_columns_flat(&cols, flat)?;
+        self.read_compared(&cols, z.comparison, flat)?;
         let (flat, env_flat) = flat.split_at(z.cands.len() * n);
         let predictions: Vec<&[f32]> = flat.chunks(n.max(1)).collect();
         let env_columns: Vec<&[f32]> = env_flat.chunks(n.max(1)).collect();
@@ -184,11 +192,17 @@ impl Identifier {
             .iter()
             .map(|&(si, k, _)| series[si].values_kn[k])
             .collect();
+        let flat_free: Vec<f64> = z
+            .cands
+            .iter()
+            .map(|&(si, k, _)| f64::from(template[si][k]))
+            .collect();
         Ok(Read {
             predictions,
             env_columns,
             centres,
             measured,
+            flat_free,
         })
     }
 
@@ -199,6 +213,7 @@ impl Identifier {
     /// edges) are not taken as informative.
     pub(super) fn select_points<'c>(
         &self,
+        z: &Sizing<'_>,
         read: &Read<'_>,
         bin_buffer: &'c mut HugeBuffer,
         laps: &mut Laps,
@@ -214,7 +229,7 @@ impl Identifier {
             .map(|g| self.typical_widening(g))
             .collect();
         let bounds = |i: usize, p: f64| {
-            let (lo, hi) = self.uncertainty.thresholds(measured[i], p);
+            let (lo, hi) = self.point_thresholds(z.roughness, measured[i], read.flat_free[i], p);
             (lo - widening[i], hi + widening[i])
         };
         let bins: &mut [u16] =
@@ -278,30 +293,48 @@ impl Identifier {
         let order = &selected.selection.order;
         let m_final = order.len().max(1);
         let p_final = s.phi.powf(1.0 / (m_final + 2 * read.centres.len()) as f64);
+        let env_flat_free: Vec<f64> = read
+            .centres
+            .iter()
+            .map(|&(si, k)| {
+                let t = self.flat_free(axes[si], z.comparison);
+                t[k.saturating_sub(hw)..=(k + hw).min(t.len() - 1)]
+                    .iter()
+                    .fold(0.0f64, |m, &g| m.max(f64::from(g).abs()))
+            })
+            .collect();
+        let judge_at = |y: f64, ff: f64| {
+            (
+                self.point_thresholds(z.roughness, y, ff, p_final),
+                self.point_curve(z.roughness, y, ff, p_final),
+            )
+        };
         let (env_reported, env_features, env_curves) = envelope::points(
             series,
             &read.centres,
             hw,
-            &self.uncertainty,
-            p_final,
+            (&judge_at, &env_flat_free),
             &read.env_columns,
         );
         laps.lap("envelope");
 
         let measured = &read.measured;
         let thresholds: Vec<(f64, f64)> = (0..measured.len())
-            .map(|i| self.uncertainty.thresholds(measured[i], p_final))
+            .map(|i| self.point_thresholds(z.roughness, measured[i], read.flat_free[i], p_final))
             .collect();
         // The thresholds at a prediction's own force where it exceeds the measurement: for the
         // EIP, and for every candidate when the baselines draw from them.
         let curves: Vec<Option<ThresholdCurve>> = (0..measured.len())
             .map(|i| {
                 (z.extras.baselines || order.contains(&i))
-                    .then(|| self.uncertainty.curve(measured[i], p_final))
+                    .then(|| self.point_curve(z.roughness, measured[i], read.flat_free[i], p_final))
             })
             .collect();
-        // The discretisation allowance's steps (identify::discretisation).
-        let shares = self.discretisation();
+        // The discretisation allowance's steps (identify::discretisation), for the samples
+        // compared one by one (the average takes in a landing's neighbours).
+        let shares = self
+            .discretisation()
+            .filter(|_| z.comparison == super::Comparison::Samples);
         let (eip_steps, env_steps) = match shares {
             Some(_) => self.allowance_steps(
                 z.used,
@@ -342,7 +375,8 @@ impl Identifier {
         );
         let cms_idx = falsify(&method_points, self.resolution());
         laps.lap("falsify");
-        let (cms, below_population) = self.departure_rule(cms_idx, axes, detection)?;
+        let (cms, below_population) =
+            self.departure_rule(cms_idx, axes, (detection, z.comparison))?;
         laps.lap("departures");
         let residual_best = residual_minimisation(&eip_points);
         let method_points = method_points.len();
@@ -440,7 +474,12 @@ impl Identifier {
             let (subsets, random) = self.random_subsets(&all_points, m_final);
             random_subsets = Some(subsets);
             falsifications.push(random);
-            falsifications.push(self.equidistant(series, z.used, m_final, judged.p_final)?);
+            falsifications.push(self.equidistant(
+                series,
+                z.used,
+                m_final,
+                (judged.p_final, z.roughness),
+            )?);
             laps.lap("baselines");
         }
 
@@ -515,6 +554,8 @@ impl Identifier {
             model_class_refuted: refuted,
             below_population,
             detection: Some(prepared.detection),
+            roughness: Some(z.roughness.clone()),
+            comparison: z.comparison,
             summary,
             maintenance_hint: hint,
             severity: Some(severity),

@@ -9,7 +9,10 @@
 
 use super::uncertainty::uniform;
 use crate::model::calibration::{IdentificationParams, UncertaintyGroup, UncertaintyKind};
-use crate::model::{CheckedCalibration, Flat, Record, SimError, Simulator, WheelPosition};
+use crate::model::surface::SurfaceNote;
+use crate::model::{
+    CheckedCalibration, ContactFilter, Flat, Record, SimError, Simulator, Surfaces, WheelPosition,
+};
 use serde::{Deserialize, Serialize};
 
 /// Extra samples recorded before the first and after the last sensor window.
@@ -51,6 +54,22 @@ pub struct Truth {
     /// Effects of the calibration simulated (hidden in the measurement, for diagnosis).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub effects: Vec<crate::model::Effect>,
+    /// The wheel and rail surfaces simulated (rough treads, out-of-round wheels, a measured
+    /// profile), as described by whoever drew them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub surfaces: Vec<SurfaceNote>,
+}
+
+/// The surfaces a synthetic pass is simulated with, the contact filter and their
+/// description for the truth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PassSurfaces {
+    /// The surfaces.
+    pub surfaces: Surfaces,
+    /// The contact filter they go through.
+    pub filter: ContactFilter,
+    /// Their description.
+    pub notes: Vec<SurfaceNote>,
 }
 
 /// A synthetic measurement: CSV text and its truth.
@@ -142,6 +161,19 @@ pub fn synthesize_pass(
     with_trigger: bool,
     noise: FieldNoise,
 ) -> Result<Synthetic, SimError> {
+    synthesize_on(cal, flat, None, seed, with_trigger, noise)
+}
+
+/// [`synthesize_pass`] over wheel and rail surfaces (rough treads, out-of-round wheels, a
+/// measured profile; `None`: round wheels on a smooth rail).
+pub fn synthesize_on(
+    cal: &CheckedCalibration,
+    flat: Option<&Flat>,
+    surfaces: Option<&PassSurfaces>,
+    seed: u64,
+    with_trigger: bool,
+    noise: FieldNoise,
+) -> Result<Synthetic, SimError> {
     if !(noise.scale >= 0.0 && noise.scale.is_finite() && (0.0..1.0).contains(&noise.ar1)) {
         return Err(SimError::Setup(format!(
             "field noise scale {} (≥ 0) and AR(1) correlation {} (0 ≤ ρ < 1) out of range",
@@ -154,7 +186,10 @@ pub fn synthesize_pass(
     let mut wide = cal.document().clone();
     wide.output.window_samples += 2 * MARGIN_SAMPLES;
     let wide = wide.check().map_err(|e| SimError::Setup(e.to_string()))?;
-    let sim = Simulator::new(&wide)?;
+    let mut sim = Simulator::new(&wide)?;
+    if let Some(s) = surfaces {
+        sim = sim.with_surfaces(&s.surfaces, s.filter)?;
+    }
     let resp = sim.run(flat, Record::default())?;
     let id = &cal.identification;
     let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1CE;
@@ -241,6 +276,7 @@ pub fn synthesize_pass(
         shift_s,
         laser_trigger_s: laser,
         effects: cal.effects.clone(),
+        surfaces: surfaces.map_or_else(Vec::new, |s| s.notes.clone()),
     };
     Ok(Synthetic { csv, truth })
 }

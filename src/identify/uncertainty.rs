@@ -44,6 +44,10 @@ pub struct CombinedUncertainty {
     s_range: (f64, f64),
     /// The largest sample of −T.
     minus_t_max: f64,
+    /// The good-wheel-relative sources' widening per kN of flat-free force, `(low, high)`.
+    good_wheel: (f64, f64),
+    /// The bounded sources' widening (kN), `(low, high)`.
+    bound: (f64, f64),
 }
 
 /// The thresholds of one point as a function of the force the relative sources scale with.
@@ -69,6 +73,9 @@ pub struct ThresholdCurve {
     slopes: (f64, f64),
     /// The interval at `reach_kn` (kept: most predictions falsification asks about lie beyond).
     at_reach: (f64, f64),
+    /// The point's good-wheel-relative widening `(low, high)` (kN), added to every interval
+    /// ([`CombinedUncertainty::good_wheel_widening`]).
+    widen: (f64, f64),
 }
 
 impl ThresholdCurve {
@@ -87,11 +94,14 @@ impl ThresholdCurve {
         } else {
             self.interpolate(a)
         };
-        if g_kn < 0.0 {
-            (-hi, -lo)
-        } else {
-            (lo, hi)
-        }
+        let (lo, hi) = if g_kn < 0.0 { (-hi, -lo) } else { (lo, hi) };
+        (lo + self.widen.0, hi + self.widen.1)
+    }
+
+    /// The same curve at a point whose good-wheel-relative widening is `widen` (kN).
+    pub fn widened(mut self, widen: (f64, f64)) -> ThresholdCurve {
+        self.widen = widen;
+        self
     }
 
     fn interpolate(&self, a: f64) -> (f64, f64) {
@@ -178,23 +188,48 @@ pub(crate) fn shortest_interval(sorted: &[f64], p: f64) -> (f64, f64) {
 }
 
 impl CombinedUncertainty {
-    /// Draws the Monte Carlo samples for an uncertainty table.
+    /// Draws the Monte Carlo samples for an uncertainty table. The absolute sources are drawn
+    /// once a point even where the series are compared through an average
+    /// (`B₅`, [`super::compare`]): a bound on a raw sample bounds an average of samples, and
+    /// the averaged draw (narrower) lost coverage on converged passes (docs/detection.md,
+    /// "Rough wheels": variants).
     pub fn new(params: &IdentificationParams) -> CombinedUncertainty {
         let mut state = params.seed ^ 0x0005_EED0_F0C0_FFEE;
         let m = params.monte_carlo_samples;
         let mut s = Vec::with_capacity(m);
         let mut t = Vec::with_capacity(m);
+        // The bounded per-point sources: (low, high) per kN of flat-free force, and in kN.
+        let (mut good_wheel, mut bound) = ((0.0, 0.0), (0.0, 0.0));
+        for src in &params.uncertainty {
+            let slot = match src.kind {
+                UncertaintyKind::GoodWheelRelative => &mut good_wheel,
+                UncertaintyKind::BoundKn => &mut bound,
+                _ => continue,
+            };
+            match src.group {
+                UncertaintyGroup::Model => {
+                    slot.0 += src.min;
+                    slot.1 += src.max;
+                }
+                UncertaintyGroup::Measurement => {
+                    slot.0 -= src.max;
+                    slot.1 -= src.min;
+                }
+            }
+        }
         for _ in 0..m {
             let (mut rel, mut abs) = (0.0, 0.0);
-            for src in &params.uncertainty {
-                let u = src.min + (src.max - src.min) * uniform(&mut state);
+            // The bounded sources are applied per point, not drawn.
+            for src in params.uncertainty.iter().filter(|u| u.kind.is_drawn()) {
                 let sign = match src.group {
                     UncertaintyGroup::Model => 1.0,
                     UncertaintyGroup::Measurement => -1.0,
                 };
+                let u = src.min + (src.max - src.min) * uniform(&mut state);
                 match src.kind {
                     UncertaintyKind::Relative => rel += sign * u,
                     UncertaintyKind::AbsoluteKn => abs += sign * u,
+                    UncertaintyKind::GoodWheelRelative | UncertaintyKind::BoundKn => {}
                 }
             }
             s.push(rel);
@@ -217,6 +252,8 @@ impl CombinedUncertainty {
                 s.iter().copied().fold(f64::NEG_INFINITY, f64::max),
             ),
             minus_t_max: t.iter().map(|t| -t).fold(f64::NEG_INFINITY, f64::max),
+            good_wheel,
+            bound,
             s,
             t,
             grid_kn,
@@ -302,9 +339,38 @@ impl CombinedUncertainty {
             rows,
             slopes: (s_lo, s_hi),
             at_reach: (0.0, 0.0),
+            widen: (0.0, 0.0),
         };
         c.at_reach = c.interpolate(reach);
         c
+    }
+
+    /// The widening `(low, high)` (kN) the bounded sources (a rough tread or rail,
+    /// [`UncertaintyKind::GoodWheelRelative`] and [`UncertaintyKind::BoundKn`]) add to the
+    /// thresholds at a point whose flat-free predicted force is `flat_free_kn`:
+    /// `[Σ min, Σ max]·|g_ff|` plus the bounds in kN, added to the interval of the drawn
+    /// sources.
+    pub fn good_wheel_widening(&self, flat_free_kn: f64) -> (f64, f64) {
+        let g = flat_free_kn.abs();
+        (
+            self.good_wheel.0 * g + self.bound.0,
+            self.good_wheel.1 * g + self.bound.1,
+        )
+    }
+
+    /// [`CombinedUncertainty::thresholds`] at a point whose flat-free predicted force is
+    /// `flat_free_kn`, widened by [`CombinedUncertainty::good_wheel_widening`].
+    pub fn thresholds_at(&self, y_kn: f64, flat_free_kn: f64, p: f64) -> (f64, f64) {
+        let (lo, hi) = self.thresholds(y_kn, p);
+        let (a, b) = self.good_wheel_widening(flat_free_kn);
+        (lo + a, hi + b)
+    }
+
+    /// [`CombinedUncertainty::curve`] at a point whose flat-free predicted force is
+    /// `flat_free_kn`, widened alike.
+    pub fn curve_at(&self, y_kn: f64, flat_free_kn: f64, p: f64) -> ThresholdCurve {
+        self.curve(y_kn, p)
+            .widened(self.good_wheel_widening(flat_free_kn))
     }
 
     /// Thresholds `[low, high]` on `prediction − measurement` (kN) at a point where the force

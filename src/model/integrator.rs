@@ -32,8 +32,10 @@ use super::lanes::{Coupling, LaneInputs, LaneState, LaneWork, StepLevel, Stepper
 pub(crate) use super::response::{Record, Response};
 pub(crate) use super::schedule::Level;
 use super::schedule::{dip_zones, strike_zones, Schedule};
+use super::surface::{contact_semi_length_m, ContactFilter, SurfaceDrops, SurfaceError, Surfaces};
 use super::track::{Support, TrackModel};
 use super::vehicle::{mul4, wheel, VehicleModel};
+use std::sync::Arc;
 use thiserror::Error;
 
 /// Errors of the simulator.
@@ -51,6 +53,9 @@ pub enum SimError {
     /// A derived calibration could not be set up.
     #[error("cannot set up the simulation: {0}")]
     Setup(String),
+    /// A wheel or rail surface does not fit the model.
+    #[error(transparent)]
+    Surface(#[from] SurfaceError),
     /// The flat is longer than the wheel circumference.
     #[error("flat length {length_mm} mm exceeds the wheel circumference {circumference_mm} mm")]
     FlatTooLong {
@@ -60,6 +65,15 @@ pub enum SimError {
         circumference_mm: f64,
     },
 }
+
+/// The longest travel of a coarse step over a surface (m): beyond it a run with surfaces takes
+/// fine steps throughout (1 mm: the bank's 400 µs step travels 5.6 mm at 50 km/h, more than
+/// the contact patch's semi-length; the converged reference's 20 µs travels 0.28 mm).
+pub const SURFACE_STEP_TRAVEL_M: f64 = 1e-3;
+
+/// A surface pit deeper than this (m, 50 µm, beyond roughness) is stepped finely around its
+/// strikes, as a flat is.
+pub const SURFACE_PIT_DEPTH_M: f64 = 5e-5;
 
 /// Full dynamic state of track and vehicle at one instant.
 #[derive(Debug, Clone, PartialEq)]
@@ -109,6 +123,9 @@ pub struct Simulator {
     /// Output delay τ (s): the series read `F(t − τ)` (time-offset and speed-deviation
     /// effects; 0 otherwise).
     pub(super) output_delay_s: f64,
+    /// The wheels' and the rail's surfaces as each wheel's drop, when the run has any
+    /// ([`Simulator::with_surfaces`]).
+    surface: Option<Arc<SurfaceDrops>>,
 }
 
 impl Simulator {
@@ -168,7 +185,46 @@ impl Simulator {
             fine,
             sensor_dofs,
             sensor_gain,
+            surface: None,
         })
+    }
+
+    /// This simulator with wheel and rail surfaces (docs/model.md §5b), their drop tabulated
+    /// once over each wheel's travel through the contact filter `filter`. Runs then take fine
+    /// steps wherever a coarse step would travel more than [`SURFACE_STEP_TRAVEL_M`], and
+    /// around every pit deeper than [`SURFACE_PIT_DEPTH_M`] as around a flat's strikes.
+    pub fn with_surfaces(
+        mut self,
+        surfaces: &Surfaces,
+        filter: ContactFilter,
+    ) -> Result<Simulator, SimError> {
+        if surfaces.is_empty() {
+            self.surface = None;
+            return Ok(self);
+        }
+        surfaces.check(self.wheel_radius)?;
+        let t_end = (self.end_sample as f64 + 2.0) / self.cal.output.sample_rate_hz
+            + self.output_delay_s.abs();
+        let spans = std::array::from_fn(|w| {
+            (
+                self.wheel_start[w] - 0.05,
+                self.wheel_start[w] + self.speed * t_end + 0.05,
+            )
+        });
+        let a = contact_semi_length_m(self.wheel_radius, self.cal.static_wheel_load_n(), self.c_h);
+        self.surface = Some(Arc::new(SurfaceDrops::new(
+            surfaces,
+            spans,
+            self.wheel_radius,
+            a,
+            filter,
+        )));
+        Ok(self)
+    }
+
+    /// Whether this simulator carries surfaces.
+    pub fn has_surfaces(&self) -> bool {
+        self.surface.is_some()
     }
 
     fn level(track: &TrackModel, vehicle: &VehicleModel, dt: f64) -> Result<StepLevel, SimError> {
@@ -272,6 +328,11 @@ impl Simulator {
         for e in &self.cal.effects {
             for (w, zw) in z.iter_mut().enumerate() {
                 *zw += e.wheel_drop_m(w, x[w], self.wheel_radius);
+            }
+        }
+        if let Some(s) = &self.surface {
+            for (w, zw) in z.iter_mut().enumerate() {
+                *zw += s.drop_m(w, x[w]);
             }
         }
         z
@@ -471,6 +532,21 @@ impl Simulator {
             self.speed,
             &self.cal.integration,
         ));
+        if let Some(s) = &self.surface {
+            let integ = &self.cal.integration;
+            if self.speed * self.cal.dt_coarse_s() > SURFACE_STEP_TRAVEL_M {
+                schedule.fine_zones_s.push((-1.0, t_end_s + 1.0));
+            } else {
+                for w in 0..2 {
+                    for (a, b) in s.deep_spans(w, SURFACE_PIT_DEPTH_M) {
+                        schedule.fine_zones_s.push((
+                            (a - self.wheel_start[w]) / self.speed - integ.fine_before_strike_s,
+                            (b - self.wheel_start[w]) / self.speed + integ.fine_after_strike_s,
+                        ));
+                    }
+                }
+            }
+        }
         schedule
     }
 

@@ -4,6 +4,7 @@
 //!
 //! Kernels here do no I/O; the simulator fills buffers it is given.
 
+pub mod average;
 pub(crate) mod banded;
 pub(crate) mod batch;
 pub mod calibration;
@@ -12,8 +13,10 @@ pub(crate) mod effect;
 pub(crate) mod flat;
 pub(crate) mod integrator;
 pub(crate) mod lanes;
+pub(crate) mod random;
 pub mod response;
 pub(crate) mod schedule;
+pub mod surface;
 pub(crate) mod track;
 pub(crate) mod vehicle;
 pub(crate) mod wheel;
@@ -22,9 +25,12 @@ pub use batch::{batch_key, BatchStats, LANES};
 pub use calibration::{Calibration, CalibrationError, CheckedCalibration};
 pub use effect::Effect;
 pub use flat::{Flat, FlatError};
-pub use integrator::{SimError, Simulator, State, Workspace};
+pub use integrator::{
+    SimError, Simulator, State, Workspace, SURFACE_PIT_DEPTH_M, SURFACE_STEP_TRAVEL_M,
+};
 pub use lanes::LaneWork;
 pub use response::{Record, Response};
 pub use schedule::{Level, Schedule};
+pub use surface::{ContactFilter, RailSurface, Surfaces, Trace, WheelSurface};
 pub use track::{RailSection, Support, TrackModel};
 pub use wheel::WheelPosition;

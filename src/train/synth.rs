@@ -3,6 +3,7 @@
 
 use crate::identify::synth::{draw_sources, resolution_step_kn, MARGIN_SAMPLES};
 use crate::model::calibration::{UncertaintyGroup, UncertaintyKind};
+use crate::model::surface::{SurfaceNote, SurfaceSpec};
 use crate::model::{CheckedCalibration, Flat, Record, SimError, Simulator, WheelPosition};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -35,6 +36,9 @@ pub struct TrainSpec {
     /// Each bogie's car-body mass as a factor of the calibration's (cars empty or laden);
     /// empty: every bogie at the calibration's.
     pub loads: Vec<f64>,
+    /// Rough treads and rail: each bogie's wheels drawn from the class with a seed of their
+    /// own (the spec's seed × 1000 + bogie), the rail drawn once for the whole train.
+    pub surfaces: Option<SurfaceSpec>,
 }
 
 /// The default train's flats: bogie 2 leading (60 × 0.5 mm), bogie 7 trailing (45 × 0.3 mm),
@@ -71,6 +75,7 @@ impl TrainSpec {
             seed,
             speeds_km_per_h: Vec::new(),
             loads: Vec::new(),
+            surfaces: None,
         }
     }
 }
@@ -86,6 +91,9 @@ pub struct TrainTruth {
     pub leading_triggers_s: Vec<f64>,
     /// Seed of the perturbation.
     pub seed: u64,
+    /// The surfaces each bogie was simulated with (bogie, what).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub surfaces: Vec<(usize, SurfaceNote)>,
 }
 
 /// A synthetic train recording.
@@ -160,14 +168,45 @@ pub fn synthesize_train(
             .find(|f| f.bogie == b + 1)
             .map(|f| f.flat.on_wheel(f.wheel))
     };
-    let flats: Vec<Option<crate::model::Response>> = (0..spec.bogies)
+    // With surfaces every bogie is its own run (its wheels drawn anew, the rail the train's).
+    let bogie_surfaces = |b: usize| -> Result<
+        Option<(
+            crate::model::Surfaces,
+            Vec<SurfaceNote>,
+            crate::model::ContactFilter,
+        )>,
+        SimError,
+    > {
+        let Some(s) = &spec.surfaces else {
+            return Ok(None);
+        };
+        let mut own = s.clone();
+        own.wheel_roughness = s
+            .wheel_roughness
+            .map(|(c, seed)| (c, seed.wrapping_mul(1000).wrapping_add(b as u64 + 1)));
+        let (surfaces, notes) = own.build(cal.vehicle.wheel_radius_m, cal.rail_length_m())?;
+        Ok(Some((surfaces, notes, s.filter)))
+    };
+    let runs: Vec<(Option<crate::model::Response>, Vec<SurfaceNote>)> = (0..spec.bogies)
         .into_par_iter()
         .map(|b| {
-            flat_of(b)
-                .map(|f| sim_of(b).1.run(Some(&f), Record::default()))
-                .transpose()
+            let surfaces = bogie_surfaces(b)?;
+            let flat = flat_of(b);
+            match surfaces {
+                None => Ok((
+                    flat.map(|f| sim_of(b).1.run(Some(&f), Record::default()))
+                        .transpose()?,
+                    Vec::new(),
+                )),
+                Some((s, notes, filter)) => {
+                    let sim = sim_of(b).1.clone().with_surfaces(&s, filter)?;
+                    Ok((Some(sim.run(flat.as_ref(), Record::default())?), notes))
+                }
+            }
         })
-        .collect::<Result<_, _>>()?;
+        .collect::<Result<_, SimError>>()?;
+    let (flats, notes): (Vec<Option<crate::model::Response>>, Vec<Vec<SurfaceNote>>) =
+        runs.into_iter().unzip();
     let n_sensors = cal.sensors.pad.len();
     let len = (0..spec.bogies)
         .map(|b| offsets[b] + sim_of(b).2.len())
@@ -275,6 +314,11 @@ pub fn synthesize_train(
                 .collect(),
             leading_triggers_s: leading,
             seed: spec.seed,
+            surfaces: notes
+                .into_iter()
+                .enumerate()
+                .flat_map(|(b, n)| n.into_iter().map(move |x| (b + 1, x)))
+                .collect(),
         },
     })
 }

@@ -317,6 +317,7 @@ fn each_bogie_of_an_accelerating_train_is_compared_with_the_member_at_its_speed(
         seed: 3,
         speeds_km_per_h: vec![47.6, 48.3, 49.2, 50.4],
         loads: Vec::new(),
+        surfaces: None,
     };
     let syn = train::synthesize_train(cal, &spec).unwrap();
     assert!(!syn.csv.contains("speed_km_per_h"), "no one speed line");

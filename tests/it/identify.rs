@@ -295,6 +295,7 @@ fn detection_separates_good_wheels_from_flats_of_a_converged_model() {
                 .identify(&parse(&syn.csv).unwrap(), None, Extras::NONE)
                 .unwrap();
             let d = r.detection.as_ref().unwrap();
+            eprintln!("spike {l} {dep} {speed}: {:?}", d.spike);
             assert!(
                 d.flat_detected,
                 "flat L {l} d {dep} at {speed} km/h: {:?}",

@@ -24,6 +24,7 @@ mod load;
 mod peer;
 mod physics;
 mod refine;
+mod rough;
 mod site;
 mod train;
 mod watch;

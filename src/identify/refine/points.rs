@@ -31,6 +31,9 @@ pub(super) struct Comparison {
     pub(super) measured: Vec<f64>,
     pub(super) thresholds: Vec<(f64, f64)>,
     pub(super) curves: Vec<ThresholdCurve>,
+    /// The average the identification compared through (`[1.0]`: the samples), which the new
+    /// flats' series go through too.
+    pub(super) average: &'static [f64],
 }
 
 impl Comparison {
@@ -42,12 +45,17 @@ impl Comparison {
                 .expect("identified sensors are the bank's")
         };
         let p = id.per_point_probability;
+        let rough = id
+            .roughness
+            .clone()
+            .unwrap_or_else(|| crate::identify::RoughnessUse::none(0.0, 0.0));
         let mut c = Comparison {
             axes: axes.clone(),
             at: Vec::new(),
             measured: Vec::new(),
             thresholds: Vec::new(),
             curves: Vec::new(),
+            average: id.comparison.weights(),
         };
         for &e in &id.eip {
             let cand = &id.candidates[e];
@@ -55,8 +63,14 @@ impl Comparison {
             c.measured.push(cand.measured_kn);
             c.thresholds
                 .push((cand.threshold_low_kn, cand.threshold_high_kn));
+            let ff = identifier.flat_free_peak_kn(
+                axis_of(cand.series),
+                cand.sample,
+                cand.sample,
+                id.comparison,
+            );
             c.curves
-                .push(identifier.threshold_curve(cand.measured_kn, p));
+                .push(identifier.point_curve(&rough, cand.measured_kn, ff, p));
         }
         for x in &id.envelope {
             c.at.push((
@@ -71,7 +85,14 @@ impl Comparison {
             ));
             c.measured.push(x.measured_kn);
             c.thresholds.push((x.threshold_low_kn, x.threshold_high_kn));
-            c.curves.push(identifier.threshold_curve(x.measured_kn, p));
+            let ff = identifier.flat_free_peak_kn(
+                axis_of(x.series),
+                x.sample - x.half_width,
+                x.sample + x.half_width,
+                id.comparison,
+            );
+            c.curves
+                .push(identifier.point_curve(&rough, x.measured_kn, ff, p));
         }
         c
     }
@@ -152,9 +173,19 @@ pub(super) fn simulate_at(
                         })?;
                         let mut g = Vec::with_capacity(cmp.at.len());
                         let mut steps = Vec::with_capacity(cmp.at.len());
+                        // Each axis' window as the identification compared it.
+                        let windows: Vec<Vec<f64>> = cmp
+                            .axes
+                            .iter()
+                            .enumerate()
+                            .map(|(i, a)| {
+                                let w = resp.window(i, a.first_sample, a.samples);
+                                crate::model::average::centred_average(w, cmp.average)
+                            })
+                            .collect();
                         for &at in &cmp.at {
                             let a = &cmp.axes[at.0];
-                            let w = resp.window(at.0, a.first_sample, a.samples);
+                            let w = &windows[at.0];
                             let read = |j: usize| (w[j] / 1e3) as f32;
                             g.push(Comparison::value(at, read));
                             let (lo, hi) = Comparison::step_span(at, a.samples - 1);

@@ -40,6 +40,8 @@ impl Default for IdentificationParams {
             departure_model_form_fraction: 0.25,
             discretisation_fraction: super::DISCRETISATION_FRACTION,
             discretisation_dynamic_ratio: super::DISCRETISATION_DYNAMIC_RATIO,
+            wheel_roughness: super::WheelRoughness::Auto,
+            rail_roughness: super::RailRoughness::Smooth,
             uncertainty: vec![
                 src(Model, "train system", Relative, -0.15, 0.05),
                 src(Model, "finite element model", Relative, -0.08, 0.05),
@@ -160,6 +162,8 @@ impl Calibration {
         c.population.depth_mm = [0.3, 0.6];
         c.population.curvature_mm = [0.0, 0.1];
         c.population.impact_position_m = [12.3, 12.5];
+        // Its passes are synthetic: round wheels on a smooth rail, judged sample by sample.
+        c.identification.wheel_roughness = super::WheelRoughness::Round;
         c
     }
 

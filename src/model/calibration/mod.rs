@@ -12,10 +12,12 @@ mod defaults;
 mod fold;
 
 mod maintenance;
+mod roughness;
 
 pub use super::effect::Effect;
 pub use super::wheel::WheelPosition;
 pub use maintenance::MaintenanceParams;
+pub use roughness::{RailRoughness, WheelRoughness};
 
 use serde::{Deserialize, Serialize};
 use std::ops::Deref;
@@ -220,6 +222,28 @@ pub enum UncertaintyKind {
     Relative,
     /// A fixed amount in kN.
     AbsoluteKn,
+    /// A fraction of the good wheel's (flat-free) predicted force at the point, bounded: a
+    /// rough tread or rail moves a pad's force most while a wheel is over it. It widens each
+    /// point's thresholds by `[min, max]·|g_ff|` (model group; the measurement group mirrors)
+    /// and the detection bound by the larger of `|min|`, `|max|` times the flat-free force
+    /// (docs/detection.md, "Rough wheels").
+    GoodWheelRelative,
+    /// A bounded amount in kN at every point, not drawn per sample as noise is: it widens each
+    /// point's thresholds by `[min, max]` and the detection bound by the larger of `|min|`,
+    /// `|max|` (the floor of a rough tread's or rail's departure where no wheel is near).
+    BoundKn,
+}
+
+impl UncertaintyKind {
+    /// Whether the source is drawn (by the Monte Carlo of the thresholds, and by synthetic
+    /// errors): the relative and absolute sources. The bounded sources (a rough tread or
+    /// rail) are applied per point instead, and synthetic passes simulate what they stand for.
+    pub fn is_drawn(self) -> bool {
+        matches!(
+            self,
+            UncertaintyKind::Relative | UncertaintyKind::AbsoluteKn
+        )
+    }
 }
 
 /// Whether a source belongs to the model or to the measurement (paper Table 2).
@@ -373,6 +397,16 @@ pub struct IdentificationParams {
     /// wheel load (flats that lose contact and land; the others keep the table's mesh term).
     #[serde(default = "default_discretisation_dynamic_ratio")]
     pub discretisation_dynamic_ratio: f64,
+    /// The wheels' roughness class (docs/detection.md, "Rough wheels"): `auto` (read from each
+    /// pass's record, by its high-frequency level), `round`, or a class (`disc`, `composite`,
+    /// `cast-iron`, `cast-iron-rough`). Its bound, simulated per bank, widens detection and the
+    /// thresholds. Absent from a calibration file: `auto`.
+    #[serde(default)]
+    pub wheel_roughness: WheelRoughness,
+    /// The site's rail: `smooth` (the model's) or `iso3095` (at the EN ISO 3095 limit
+    /// spectrum); a pass cannot tell it from its record, the site states it. Absent: `smooth`.
+    #[serde(default)]
+    pub rail_roughness: RailRoughness,
     /// The uncertainty table (paper Table 2).
     pub uncertainty: Vec<UncertaintySource>,
 }

@@ -96,7 +96,10 @@ fn main() {
     // The limit a good wheel of this bank is told (every pass of the bank's speed and sensors
     // is told the same, from the departures table).
     let told = identifier
-        .detection_limit(&(0..cal.sensors.pad.len()).collect::<Vec<_>>())
+        .detection_limit(
+            &(0..cal.sensors.pad.len()).collect::<Vec<_>>(),
+            &identifier.table_bounds(),
+        )
         .expect("the departures table")
         .l0_mm
         .unwrap_or(f64::NAN);

@@ -264,6 +264,8 @@ pub(super) fn identification() -> Identification {
         model_class_refuted: false,
         below_population: false,
         detection: Some(detected),
+        roughness: None,
+        comparison: Default::default(),
         summary: SUMMARY.into(),
         maintenance_hint: "Remove the wheelset from service within 24 h (GM/RT2466: L0 > 50 mm)."
             .into(),
