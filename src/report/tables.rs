@@ -137,6 +137,9 @@ pub fn identification_text(id: &Identification) -> String {
         s += &detection_line(d);
         s.push('\n');
     }
+    if let Some(r) = &id.roughness {
+        s += &format!("roughness: {}\n", r.words());
+    }
     if id.detection.as_ref().is_some_and(|d| !d.flat_detected) {
         s += &format!(
             "alignment: {} (bank time = file time {:+.4} s{}); no sizing\n",
@@ -210,15 +213,23 @@ pub fn detection_line(d: &crate::identify::Detection) -> String {
         )
     });
     format!(
-        "detection: {} over {} samples (bound {:.2} kN + {:.0} % of the force); gains {}{worst}",
+        "detection: {} over {} samples (bound {:.2} kN + {:.1} % of the force{}); gains {}{worst}",
         if d.flat_detected {
             "flat detected"
         } else {
             "no flat detected"
         },
         d.samples,
-        d.bounds.absolute_kn + d.bounds.allowance_kn,
-        100.0 * d.bounds.allowance_fraction,
+        d.bounds.absolute_kn + d.bounds.bound_kn + d.bounds.allowance_kn,
+        100.0 * d.bounds.fraction(),
+        match &d.spike {
+            Some(t) => format!(
+                "; strike test: largest {:.1} × the level, limit {:.0}",
+                t.sensors.iter().map(|x| x.2).fold(0.0, f64::max),
+                t.ratio_limit
+            ),
+            None => String::new(),
+        },
         gains.join(", "),
     )
 }

@@ -264,6 +264,9 @@ pub(super) fn render_html(
     if let Some(d) = &id.detection {
         writeln!(h, "<h2>Detection</h2>")?;
         writeln!(h, "<p>{}</p>", e(&crate::report::tables::detection_line(d)))?;
+        if let Some(r) = &id.roughness {
+            writeln!(h, "<p>Roughness: {}</p>", e(&r.words()))?;
+        }
         figure(&mut h, Figure::Detection)?;
     }
 

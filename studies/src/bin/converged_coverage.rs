@@ -9,7 +9,7 @@
 //! of the identification settings compare on the same passes. Each case is identified bank-only
 //! (and, with `refine`, refined); one line per case, then coverage, refuted cases and the
 //! median L0 width for the cases whose flat lost contact and for the others.
-//! `DISC=α` overrides `discretisation_fraction`, `DISC_RATIO` `discretisation_dynamic_ratio`; `KAPPA=κ` the bank resolution.
+//! `WHEELS=round|auto|…` overrides `wheel_roughness`, `DISC=α` `discretisation_fraction`, `DISC_RATIO` `discretisation_dynamic_ratio`; `KAPPA=κ` the bank resolution.
 use wheelflat_studies::study;
 
 use rayon::prelude::*;
@@ -54,6 +54,10 @@ fn main() {
         std::fs::write(&csv, &syn.csv).unwrap();
     });
     let mut settings = cal.identification.clone();
+    if let Ok(w) = std::env::var("WHEELS") {
+        settings.wheel_roughness =
+            serde_json::from_str(&format!("\"{w}\"")).expect("WHEELS names a class or auto");
+    }
     if let Ok(a) = std::env::var("DISC") {
         settings.discretisation_fraction = a.parse().expect("DISC is a number");
     }

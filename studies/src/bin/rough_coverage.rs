@@ -200,7 +200,7 @@ fn main() {
         if std::env::var("VERBOSE").is_ok() {
             let w = out.detection.as_ref().and_then(|d| d.worst());
             println!(
-                "{k:>4} {:16} as {:16} h {:5.2} spike {:5.2} {} L0 {:5.1} det {} excess {:6.2} {} held {} refuted {} width {:?}",
+                "{k:>4} {:16} as {:16} h {:5.2} spike {:5.2} {} L0 {:5.1} det {} excess {:6.2} {} held {} refuted {} width {:?} limit {:?}",
                 class_of(k).name(),
                 out.roughness.as_ref().and_then(|r| r.wheel).map_or("round", |c| c.name()),
                 out.roughness.as_ref().map_or(f64::NAN, |r| r.hf_kn),
@@ -215,7 +215,12 @@ fn main() {
                 w.map_or("", |w| w.sensor.as_str()),
                 u8::from(held),
                 u8::from(refuted),
-                width.map(|w| w.round())
+                width.map(|w| w.round()),
+                out.detection
+                    .as_ref()
+                    .and_then(|d| d.limit.as_ref())
+                    .and_then(|l| l.l0_mm)
+                    .map(|l| l.round())
             );
         }
         rows.push((class_of(k), is_flat, detected, held, width, refuted));

@@ -1,0 +1,151 @@
+//! Out-of-round good wheels against the converged reference (docs/detection.md, "Rough
+//! wheels"): `cargo run --release -p wheelflat-studies --bin oor_study -- BANK CACHE CASES SEED`.
+//!
+//! CASES good wheels (no flat), each with one out-of-round harmonic on one wheel: order
+//! `1 + k mod 20`, amplitude drawn in 5–50 µm, phase drawn, the wheel alternating; simulated at
+//! `Calibration::converged_reference` with the default contact filter (an out-of-round wheel's
+//! wavelengths, 126 mm and longer, pass it unchanged) and perturbed per the paper's Eq. 1 (seed
+//! `SEED + case`); written to CACHE once and read back. Each pass is answered by
+//! `Identifier::identify` with the bank's settings (`WHEELS=round|auto|…` overrides
+//! `wheel_roughness`): one line per pass, then how many were sized as a flat, per order band.
+use rayon::prelude::*;
+use std::path::PathBuf;
+use wheelflat::identify::synth::{synthesize_on, FieldNoise, PassSurfaces, Truth};
+use wheelflat::identify::{Extras, Identifier, Measurement};
+use wheelflat::model::surface::{Harmonic, SurfaceSpec};
+use wheelflat::model::{ContactFilter, WheelPosition};
+use wheelflat_studies::{coverage, study};
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    if args.len() < 5 {
+        panic!("usage: oor_study BANK CACHE CASES SEED");
+    }
+    let (bank, cal) = study::open_bank(&args[1]);
+    let cache = PathBuf::from(&args[2]);
+    let cases: usize = args[3].parse().expect("CASES");
+    let seed: u64 = args[4].parse().expect("SEED");
+    std::fs::create_dir_all(&cache).expect("cache folder");
+    let model = coverage::converged_model(&cal);
+    // (wheel, order, amplitude µm, phase) of case k, from a seeded draw.
+    let harmonic = |k: usize| {
+        let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ k as u64;
+        let mut next = || {
+            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let wheel = if k.is_multiple_of(2) {
+            WheelPosition::Trailing
+        } else {
+            WheelPosition::Leading
+        };
+        let order = 1 + (k % 20) as u32;
+        let amplitude_um = 5.0 + 45.0 * next();
+        let phase = std::f64::consts::TAU * next();
+        (wheel, order, amplitude_um, phase)
+    };
+    (0..cases).into_par_iter().for_each(|k| {
+        let csv = cache.join(format!("case-{k}.csv"));
+        if csv.exists() {
+            return;
+        }
+        let (wheel, order, amplitude_um, phase) = harmonic(k);
+        let spec = SurfaceSpec {
+            out_of_round: vec![(
+                wheel,
+                Harmonic {
+                    order,
+                    amplitude_m: amplitude_um * 1e-6,
+                    phase_rad: phase,
+                },
+            )],
+            filter: ContactFilter::DEFAULT,
+            ..SurfaceSpec::default()
+        };
+        let (surfaces, notes) = spec
+            .build(cal.vehicle.wheel_radius_m, cal.rail_length_m())
+            .expect("surfaces");
+        let surf = PassSurfaces {
+            surfaces,
+            filter: ContactFilter::DEFAULT,
+            notes,
+        };
+        let syn = synthesize_on(
+            &model,
+            None,
+            Some(&surf),
+            seed.wrapping_add(k as u64),
+            true,
+            FieldNoise::TABLE,
+        )
+        .expect("simulated");
+        std::fs::write(
+            cache.join(format!("case-{k}.truth.json")),
+            serde_json::to_string_pretty(&syn.truth).unwrap(),
+        )
+        .unwrap();
+        std::fs::write(&csv, &syn.csv).unwrap();
+    });
+    let mut settings = cal.identification.clone();
+    if let Ok(w) = std::env::var("WHEELS") {
+        settings.wheel_roughness =
+            serde_json::from_str(&format!("\"{w}\"")).expect("WHEELS names a class or auto");
+    }
+    let id = Identifier::new(bank, settings).expect("identifier");
+    let results: Vec<_> = (0..cases)
+        .into_par_iter()
+        .map(|k| {
+            let csv = cache.join(format!("case-{k}.csv"));
+            let text = std::fs::read_to_string(&csv).unwrap();
+            let _t: Truth = serde_json::from_str(
+                &std::fs::read_to_string(cache.join(format!("case-{k}.truth.json"))).unwrap(),
+            )
+            .unwrap();
+            let m = Measurement::from_csv(&csv, &text, cal.output.sample_rate_hz).expect("csv");
+            let out = id.identify(&m, None, Extras::NONE).expect("identified");
+            (k, out)
+        })
+        .collect();
+    // Per order band (1–5, 6–10, 11–15, 16–20): passes, sized as a flat.
+    let mut bands = [[0usize; 2]; 4];
+    for (k, out) in &results {
+        let (wheel, order, amplitude_um, _) = harmonic(*k);
+        let d = out.detection.as_ref();
+        let detected = d.is_some_and(|d| d.flat_detected);
+        let sized = detected && !out.cms.is_empty();
+        let b = ((order - 1) / 5) as usize;
+        bands[b][0] += 1;
+        bands[b][1] += usize::from(detected);
+        println!(
+            "{k:>4} {:8} order {order:>2} {amplitude_um:5.1} µm  h {:5.2}  {}{}",
+            wheel.name(),
+            out.roughness.as_ref().map_or(f64::NAN, |r| r.hf_kn),
+            if detected { "FLAT DETECTED" } else { "no flat" },
+            if sized {
+                format!(
+                    ", sized: CMS {} L0 {:?}",
+                    out.cms.len(),
+                    out.falsifications[0].ranges.as_ref().map(|r| r.l0_mm)
+                )
+            } else {
+                String::new()
+            }
+        );
+    }
+    println!(
+        "{cases} out-of-round good wheels (orders 1–20, 5–50 µm), bank {}",
+        args[1]
+    );
+    for (b, [n, flagged]) in bands.iter().enumerate() {
+        println!(
+            "orders {:>2}–{:<2}: {flagged} of {n} flagged as a flat",
+            5 * b + 1,
+            5 * b + 5
+        );
+    }
+    let total: usize = bands.iter().map(|b| b[1]).sum();
+    println!("all: {total} of {cases} flagged as a flat");
+}
