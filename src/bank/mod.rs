@@ -27,6 +27,7 @@ pub(crate) mod loads;
 pub(crate) mod lock;
 pub mod neighbours;
 mod observer;
+pub mod out_of_round;
 pub(crate) mod population;
 pub(crate) mod prune;
 pub(crate) mod reader;

@@ -221,6 +221,19 @@ pub fn verify(dir: &Path) -> Result<(Manifest, Vec<VerifyProblem>), BankError> {
                 .into(),
         });
     }
+    // The out-of-round basis is a cache too (bank::out_of_round): when present, whole and this
+    // bank's.
+    let basis = version.join(super::out_of_round::OUT_OF_ROUND_FILE);
+    if let Ok(bytes) = std::fs::read(&basis) {
+        if let Err(message) = super::out_of_round::decode(&bytes, &manifest.bank_id, None) {
+            problems.push(VerifyProblem {
+                path: basis,
+                message: format!(
+                    "the out-of-round basis (a cache; delete it to have it rebuilt): {message}"
+                ),
+            });
+        }
+    }
     // The layout: checked as the reader checks it, then every offset against the one the
     // shard's own footer gives (and the decoder confirms).
     if let Some(aux) = &manifest.layout {

@@ -146,6 +146,10 @@ pub struct Detection {
     /// the good wheel.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spike: Option<SpikeTest>,
+    /// The harmonic of one wheel that explains a pass the test flagged: the pass is then "no
+    /// flat detected; out of round" (`identify::out_of_round`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub out_of_round: Option<super::harmonic::OutOfRoundFit>,
 }
 
 impl Detection {
@@ -231,6 +235,7 @@ pub(crate) fn detect(
         sensors,
         limit: None,
         spike: None,
+        out_of_round: None,
     }
 }
 

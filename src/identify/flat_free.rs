@@ -165,13 +165,27 @@ impl Identifier {
             ),
             _ => String::new(),
         };
-        let summary = format!(
-            "No flat detected: every one of the {} samples of {} sensor(s) lies within the good wheel's bounds{closest}. Detection limit: {limit_words}.{unseen_words}",
-            detection.samples,
-            detection.sensors.len(),
-        );
+        let summary = match &detection.out_of_round {
+            Some(fit) => format!(
+                "No flat detected; {}. Detection limit: {limit_words}.{unseen_words}",
+                fit.words()
+            ),
+            None => format!(
+                "No flat detected: every one of the {} samples of {} sensor(s) lies within the good wheel's bounds{closest}. Detection limit: {limit_words}.{unseen_words}",
+                detection.samples,
+                detection.sensors.len(),
+            ),
+        };
         let hint = match (limit.l0_mm, unseen.as_slice()) {
-            (Some(_), []) => "No action: no flat detected at this pass.".to_string(),
+            (Some(_), []) => match &detection.out_of_round {
+                Some(f) => format!(
+                    "No flat-spot action. The {} wheel is out of round (order {}, {:.0} µm): check it against the out-of-roundness limit for reprofiling.",
+                    f.wheel.name(),
+                    f.order,
+                    f.amplitude_um
+                ),
+                None => "No action: no flat detected at this pass.".to_string(),
+            },
             (Some(_), [w]) => format!(
                 "No action on the other wheel; no verdict on the {w} wheel: these sensors cannot see its flats — do not count this pass as a good {w} wheel."
             ),

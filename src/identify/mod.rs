@@ -16,8 +16,10 @@ pub mod envelope;
 pub mod falsify;
 pub(crate) mod family;
 mod flat_free;
+pub(crate) mod harmonic;
 pub(crate) mod load;
 pub(crate) mod measurement;
+pub mod out_of_round;
 pub(crate) mod pip;
 mod prepare;
 pub(crate) mod ranges;
@@ -164,6 +166,8 @@ pub struct Identifier {
     load_levels: Mutex<std::collections::HashMap<usize, (f64, [f64; 2])>>,
     /// The bank's roughness table, loaded when a pass first needs it ([`roughness`]).
     roughness: Mutex<Option<std::sync::Arc<crate::bank::roughness::RoughnessTable>>>,
+    /// The bank's out-of-round basis, simulated when a pass first needs it ([`out_of_round`]).
+    out_of_round: Mutex<Option<std::sync::Arc<crate::bank::out_of_round::OutOfRoundBasis>>>,
 }
 
 impl Identifier {
@@ -219,6 +223,7 @@ impl Identifier {
             flat_free_averaged,
             load_levels: Mutex::new(std::collections::HashMap::new()),
             roughness: Mutex::new(None),
+            out_of_round: Mutex::new(None),
         }
     }
 
@@ -386,6 +391,23 @@ impl Identifier {
             d
         };
         laps.lap("detection");
+        // A departure with no sharp strike may be an out-of-round wheel: named, not sized.
+        let mut detection = detection;
+        let strike = detection.spike.as_ref().is_some_and(|t| t.flat_detected);
+        if detection.flat_detected && !strike {
+            let (compared, c) = match stated_round {
+                true => (&series, Comparison::Samples),
+                false => (&averaged, Comparison::Binomial5),
+            };
+            if let Some((fit, mut d)) =
+                self.explain_out_of_round(&axes, compared, &detection, bounds, c)?
+            {
+                d.spike = detection.spike.take();
+                d.out_of_round = Some(fit);
+                detection = d;
+            }
+            laps.lap("out of round");
+        }
         if !detection.flat_detected {
             return self.no_flat(
                 m,

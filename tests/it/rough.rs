@@ -6,10 +6,13 @@
 use crate::common::{cached_bank, narrow_calibration, CachedBank};
 use std::path::{Path, PathBuf};
 use wheelflat::bank::Bank;
+use wheelflat::identify::synth::{synthesize_on, FieldNoise, PassSurfaces};
 use wheelflat::identify::{Extras, Identifier, Measurement};
 use wheelflat::model::calibration::WheelRoughness;
-use wheelflat::model::surface::parse_trace;
-use wheelflat::model::{Calibration, ContactFilter, Record, Simulator, Surfaces, WheelSurface};
+use wheelflat::model::surface::{parse_trace, Harmonic, SurfaceSpec};
+use wheelflat::model::{
+    Calibration, ContactFilter, Flat, Record, Simulator, Surfaces, WheelPosition, WheelSurface,
+};
 
 fn pass_dir(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -127,4 +130,80 @@ fn a_rough_or_polygonal_good_wheel_is_not_sized_as_a_flat() {
         let spike = d.spike.as_ref().expect("auto runs the strike test");
         assert!(!spike.flat_detected, "{name}: {spike:?}");
     }
+}
+
+/// A synthetic pass on the identify bank's calibration (bank mesh, errors per Eq. 1, seed
+/// `seed`): the trailing wheel `order`-gonal with `amplitude_um`, and `flat` if given.
+fn out_of_round_pass(order: u32, amplitude_um: f64, flat: Option<&Flat>, seed: u64) -> Measurement {
+    let (_, cal) = bank();
+    let spec = SurfaceSpec {
+        out_of_round: vec![(
+            WheelPosition::Trailing,
+            Harmonic {
+                order,
+                amplitude_m: amplitude_um * 1e-6,
+                phase_rad: 0.7,
+            },
+        )],
+        ..SurfaceSpec::default()
+    };
+    let (surfaces, notes) = spec
+        .build(cal.vehicle.wheel_radius_m, cal.rail_length_m())
+        .unwrap();
+    let surf = PassSurfaces {
+        surfaces,
+        filter: ContactFilter::DEFAULT,
+        notes,
+    };
+    let syn = synthesize_on(cal, flat, Some(&surf), seed, true, FieldNoise::TABLE).unwrap();
+    Measurement::from_csv(Path::new("oor.csv"), &syn.csv, 2500.0).unwrap()
+}
+
+/// Issue 44: an out-of-round good wheel was sized as a flat. A 10-sided trailing wheel of
+/// 30 µm (wavelength 251 mm) leaves the good wheel's bounds; one harmonic of one wheel brings
+/// it back inside, so it is "no flat detected; out of round", with its wheel, order and
+/// amplitude (within 15 %: errors per Eq. 1 on the record), under `auto` and with round wheels
+/// stated. The same wheel with a flat (60 × 0.45 mm) is still a flat: the harmonic cannot
+/// explain its strikes.
+#[test]
+fn an_out_of_round_good_wheel_is_named_not_sized() {
+    for wheels in [WheelRoughness::Auto, WheelRoughness::Round] {
+        let id = identifier(wheels);
+        let r = id
+            .identify(&out_of_round_pass(10, 30.0, None, 3), None, Extras::NONE)
+            .unwrap();
+        println!("{wheels:?}: {}", r.summary);
+        let d = r.detection.as_ref().unwrap();
+        assert!(!d.flat_detected, "{wheels:?}: {}", r.summary);
+        assert!(r.cms.is_empty(), "{wheels:?}: not sized");
+        let fit = d.out_of_round.as_ref().expect("named out of round");
+        assert_eq!(
+            (fit.wheel, fit.order),
+            (WheelPosition::Trailing, 10),
+            "{fit:?}"
+        );
+        assert!((fit.amplitude_um - 30.0).abs() < 4.5, "{fit:?}");
+        assert!(
+            fit.explained_share >= 0.5 && fit.excess_before_kn > 0.0,
+            "{fit:?}"
+        );
+        assert!(
+            r.summary
+                .starts_with("No flat detected; out of round: the trailing wheel, order 10"),
+            "{}",
+            r.summary
+        );
+    }
+    let id = identifier(WheelRoughness::Auto);
+    let flat = Flat::from_mm(60.0, 0.45, 0.05, 12.4).unwrap();
+    let r = id
+        .identify(
+            &out_of_round_pass(10, 30.0, Some(&flat), 4),
+            None,
+            Extras::NONE,
+        )
+        .unwrap();
+    let d = r.detection.as_ref().unwrap();
+    assert!(d.flat_detected && d.out_of_round.is_none(), "{}", r.summary);
+    assert!(!r.cms.is_empty(), "{}", r.summary);
 }

@@ -109,21 +109,34 @@ fn main() {
             (k, out)
         })
         .collect();
-    // Per order band (1–5, 6–10, 11–15, 16–20): passes, sized as a flat.
-    let mut bands = [[0usize; 2]; 4];
+    // Per order band (1–5, 6–10, 11–15, 16–20): passes, flagged as a flat, named out of
+    // round, named with the right wheel and order.
+    let mut bands = [[0usize; 4]; 4];
     for (k, out) in &results {
         let (wheel, order, amplitude_um, _) = harmonic(*k);
         let d = out.detection.as_ref();
         let detected = d.is_some_and(|d| d.flat_detected);
         let sized = detected && !out.cms.is_empty();
         let b = ((order - 1) / 5) as usize;
+        let named = d.and_then(|d| d.out_of_round.as_ref());
+        let right = named.is_some_and(|f| f.wheel == wheel && f.order == order);
         bands[b][0] += 1;
         bands[b][1] += usize::from(detected);
+        bands[b][2] += usize::from(named.is_some());
+        bands[b][3] += usize::from(right);
         println!(
-            "{k:>4} {:8} order {order:>2} {amplitude_um:5.1} µm  h {:5.2}  {}{}",
+            "{k:>4} {:8} order {order:>2} {amplitude_um:5.1} µm  h {:5.2}  {}{}{}",
             wheel.name(),
             out.roughness.as_ref().map_or(f64::NAN, |r| r.hf_kn),
             if detected { "FLAT DETECTED" } else { "no flat" },
+            named.map_or(String::new(), |f| format!(
+                "; named: {} order {} {:.1} µm, explains {:.2}{}",
+                f.wheel.name(),
+                f.order,
+                f.amplitude_um,
+                f.explained_share,
+                if right { "" } else { " (WRONG)" }
+            )),
             if sized {
                 format!(
                     ", sized: CMS {} L0 {:?}",
@@ -139,13 +152,18 @@ fn main() {
         "{cases} out-of-round good wheels (orders 1–20, 5–50 µm), bank {}",
         args[1]
     );
-    for (b, [n, flagged]) in bands.iter().enumerate() {
+    for (b, [n, flagged, named, right]) in bands.iter().enumerate() {
         println!(
-            "orders {:>2}–{:<2}: {flagged} of {n} flagged as a flat",
+            "orders {:>2}–{:<2}: {flagged} of {n} flagged as a flat; named out of round {named}, the right wheel and order {right}",
             5 * b + 1,
             5 * b + 5
         );
     }
-    let total: usize = bands.iter().map(|b| b[1]).sum();
-    println!("all: {total} of {cases} flagged as a flat");
+    let total = |j: usize| bands.iter().map(|b| b[j]).sum::<usize>();
+    println!(
+        "all: {} of {cases} flagged as a flat; named out of round {}, the right wheel and order {}",
+        total(1),
+        total(2),
+        total(3)
+    );
 }

@@ -200,7 +200,7 @@ fn main() {
         if std::env::var("VERBOSE").is_ok() {
             let w = out.detection.as_ref().and_then(|d| d.worst());
             println!(
-                "{k:>4} {:16} as {:16} h {:5.2} spike {:5.2} {} L0 {:5.1} det {} excess {:6.2} {} held {} refuted {} width {:?} limit {:?}",
+                "{k:>4} {:16} as {:16} h {:5.2} spike {:5.2} {} L0 {:5.1} det {} excess {:6.2} {} held {} refuted {} width {:?} limit {:?}{}",
                 class_of(k).name(),
                 out.roughness.as_ref().and_then(|r| r.wheel).map_or("round", |c| c.name()),
                 out.roughness.as_ref().map_or(f64::NAN, |r| r.hf_kn),
@@ -220,7 +220,18 @@ fn main() {
                     .as_ref()
                     .and_then(|d| d.limit.as_ref())
                     .and_then(|l| l.l0_mm)
-                    .map(|l| l.round())
+                    .map(|l| l.round()),
+                out.detection
+                    .as_ref()
+                    .and_then(|d| d.out_of_round.as_ref())
+                    .map_or(String::new(), |f| format!(
+                        " OOR {} n{} {:.0} µm explains {:.2} before {:.2}",
+                        f.wheel.name(),
+                        f.order,
+                        f.amplitude_um,
+                        f.explained_share,
+                        f.excess_before_kn
+                    ))
             );
         }
         rows.push((class_of(k), is_flat, detected, held, width, refuted));
