@@ -167,3 +167,50 @@ pub fn splitmix_uniform(state: &mut u64) -> f64 {
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
 }
+
+/// Writes case `k`'s synthetic pass into `cache` as `case-k.csv` and its truth as
+/// `case-k.truth.json` (the studies' pass caches).
+pub fn write_case(cache: &Path, k: usize, syn: &wheelflat::identify::synth::Synthetic) {
+    std::fs::write(
+        cache.join(format!("case-{k}.truth.json")),
+        serde_json::to_string_pretty(&syn.truth).expect("a truth serialises"),
+    )
+    .expect("the cache is writable");
+    std::fs::write(cache.join(format!("case-{k}.csv")), &syn.csv).expect("the cache is writable");
+}
+
+/// `settings` with `WHEELS=round|auto|disc|…` applied to `wheel_roughness` when set.
+pub fn wheels_from_env(
+    mut settings: wheelflat::model::calibration::IdentificationParams,
+) -> wheelflat::model::calibration::IdentificationParams {
+    if let Ok(w) = std::env::var("WHEELS") {
+        settings.wheel_roughness =
+            serde_json::from_str(&format!("\"{w}\"")).expect("WHEELS names a class or auto");
+    }
+    settings
+}
+
+/// The arguments `BANK CACHE CASES SEED …` of the studies that cache their passes: the bank,
+/// its calibration, the cache folder (created), the cases, the seed, and every argument.
+pub fn cached_args(
+    name: &str,
+    rest: &str,
+) -> (
+    Bank,
+    CheckedCalibration,
+    std::path::PathBuf,
+    usize,
+    u64,
+    Vec<String>,
+) {
+    let args: Vec<String> = std::env::args().collect();
+    if args.len() < 5 {
+        panic!("usage: {name} BANK CACHE CASES SEED {rest}");
+    }
+    let (bank, cal) = open_bank(&args[1]);
+    let cache = std::path::PathBuf::from(&args[2]);
+    std::fs::create_dir_all(&cache).expect("cache folder");
+    let cases: usize = args[3].parse().expect("CASES");
+    let seed: u64 = args[4].parse().expect("SEED");
+    (bank, cal, cache, cases, seed, args)
+}

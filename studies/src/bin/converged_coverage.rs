@@ -46,18 +46,9 @@ fn main() {
             return;
         }
         let syn = synthesize(&model, flat, seed.wrapping_add(k as u64), true).expect("simulated");
-        std::fs::write(
-            cache.join(format!("case-{k}.truth.json")),
-            serde_json::to_string_pretty(&syn.truth).unwrap(),
-        )
-        .unwrap();
-        std::fs::write(&csv, &syn.csv).unwrap();
+        study::write_case(&cache, k, &syn);
     });
-    let mut settings = cal.identification.clone();
-    if let Ok(w) = std::env::var("WHEELS") {
-        settings.wheel_roughness =
-            serde_json::from_str(&format!("\"{w}\"")).expect("WHEELS names a class or auto");
-    }
+    let mut settings = study::wheels_from_env(cal.identification.clone());
     if let Ok(a) = std::env::var("DISC") {
         settings.discretisation_fraction = a.parse().expect("DISC is a number");
     }

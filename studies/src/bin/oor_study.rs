@@ -9,7 +9,6 @@
 //! `Identifier::identify` with the bank's settings (`WHEELS=round|auto|…` overrides
 //! `wheel_roughness`): one line per pass, then how many were sized as a flat, per order band.
 use rayon::prelude::*;
-use std::path::PathBuf;
 use wheelflat::identify::synth::{synthesize_on, FieldNoise, PassSurfaces, Truth};
 use wheelflat::identify::{Extras, Identifier, Measurement};
 use wheelflat::model::surface::{Harmonic, SurfaceSpec};
@@ -17,15 +16,7 @@ use wheelflat::model::{ContactFilter, WheelPosition};
 use wheelflat_studies::{coverage, study};
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    if args.len() < 5 {
-        panic!("usage: oor_study BANK CACHE CASES SEED");
-    }
-    let (bank, cal) = study::open_bank(&args[1]);
-    let cache = PathBuf::from(&args[2]);
-    let cases: usize = args[3].parse().expect("CASES");
-    let seed: u64 = args[4].parse().expect("SEED");
-    std::fs::create_dir_all(&cache).expect("cache folder");
+    let (bank, cal, cache, cases, seed, args) = study::cached_args("oor_study", "");
     let model = coverage::converged_model(&cal);
     // (wheel, order, amplitude µm, phase) of case k, from a seeded draw.
     let harmonic = |k: usize| {
@@ -82,18 +73,9 @@ fn main() {
             FieldNoise::TABLE,
         )
         .expect("simulated");
-        std::fs::write(
-            cache.join(format!("case-{k}.truth.json")),
-            serde_json::to_string_pretty(&syn.truth).unwrap(),
-        )
-        .unwrap();
-        std::fs::write(&csv, &syn.csv).unwrap();
+        study::write_case(&cache, k, &syn);
     });
-    let mut settings = cal.identification.clone();
-    if let Ok(w) = std::env::var("WHEELS") {
-        settings.wheel_roughness =
-            serde_json::from_str(&format!("\"{w}\"")).expect("WHEELS names a class or auto");
-    }
+    let settings = study::wheels_from_env(cal.identification.clone());
     let id = Identifier::new(bank, settings).expect("identifier");
     let results: Vec<_> = (0..cases)
         .into_par_iter()

@@ -11,9 +11,9 @@
 //! CACHE once and read back, so identification settings compare on the same passes. `ROUGH=
 //! r1:r0` adds the bounded sources `good_wheel_relative ±r1` and `bound_kn ±r0` to the bank's
 //! table. Per class: good wheels quiet, flats held (L, d inside), refuted (empty answer),
-//! median L0 width, one class spanned.
+//! median L0 width, one class spanned. `CLASS=name` puts every pass in one class;
+//! `DEPTH_MM=lo:hi` draws the flats' depths from that range (a class's detection limit).
 use rayon::prelude::*;
-use std::path::PathBuf;
 use wheelflat::identify::synth::{synthesize_on, FieldNoise, PassSurfaces, Truth};
 use wheelflat::identify::{Extras, Identifier, Measurement};
 use wheelflat::model::calibration::{UncertaintyGroup, UncertaintyKind, UncertaintySource};
@@ -57,14 +57,8 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    if args.len() < 5 {
-        panic!("usage: rough_coverage BANK CACHE CASES SEED [smooth]");
-    }
-    let (bank, cal) = study::open_bank(&args[1]);
-    let cache = PathBuf::from(&args[2]);
-    let cases: usize = args[3].parse().expect("CASES");
-    let seed: u64 = args[4].parse().expect("SEED");
+    let (bank, cal, cache, cases, seed, args) =
+        study::cached_args("rough_coverage", "[smooth|norail]");
     let smooth = args.iter().skip(5).any(|a| a == "smooth");
     let with_rail = !args.iter().skip(5).any(|a| a == "norail");
     let filter = match std::env::var("FILTER").as_deref() {
@@ -74,11 +68,23 @@ fn main() {
             rolling_circle: false,
         },
     };
-    std::fs::create_dir_all(&cache).expect("cache folder");
     let model = coverage::converged_model(&cal);
-    let flats = coverage::truths_within(&cal, cases, seed, 0.0);
-    // Case k: good wheels 0..cases, flats cases..2·cases; wheel class k mod 4.
-    let class_of = |k: usize| RoughnessClass::WHEELS[k % 4];
+    // DEPTH_MM=lo:hi draws the flats' depths from that range only (e.g. at a detection limit).
+    let mut truth_cal = cal.document().clone();
+    if let Ok(d) = std::env::var("DEPTH_MM") {
+        let (lo, hi) = d.split_once(':').expect("DEPTH_MM=lo:hi");
+        truth_cal.population.depth_mm = [lo.parse().unwrap(), hi.parse().unwrap()];
+    }
+    let truth_cal = truth_cal
+        .check()
+        .expect("DEPTH_MM inside the calibration's checks");
+    let flats = coverage::truths_within(&truth_cal, cases, seed, 0.0);
+    // Case k: good wheels 0..cases, flats cases..2·cases; wheel class k mod 4, or CLASS=name
+    // for every case.
+    let only: Option<RoughnessClass> = std::env::var("CLASS")
+        .ok()
+        .map(|c| RoughnessClass::from_name(&c).expect("CLASS names a wheel class"));
+    let class_of = |k: usize| only.unwrap_or(RoughnessClass::WHEELS[k % 4]);
     (0..2 * cases).into_par_iter().for_each(|k| {
         let csv = cache.join(format!("case-{k}.csv"));
         if csv.exists() {
@@ -102,14 +108,9 @@ fn main() {
             FieldNoise::TABLE,
         )
         .expect("simulated");
-        std::fs::write(
-            cache.join(format!("case-{k}.truth.json")),
-            serde_json::to_string_pretty(&syn.truth).unwrap(),
-        )
-        .unwrap();
-        std::fs::write(&csv, &syn.csv).unwrap();
+        study::write_case(&cache, k, &syn);
     });
-    let mut settings = cal.identification.clone();
+    let mut settings = study::wheels_from_env(cal.identification.clone());
     if let Ok(r) = std::env::var("ROUGH") {
         let (r1, r0) = r.split_once(':').expect("ROUGH=r1:r0");
         let (r1, r0): (f64, f64) = (r1.parse().unwrap(), r0.parse().unwrap());
@@ -130,10 +131,6 @@ fn main() {
     }
     if std::env::var("RAIL").is_ok_and(|r| r == "iso3095") {
         settings.rail_roughness = wheelflat::model::calibration::RailRoughness::Iso3095;
-    }
-    if let Ok(w) = std::env::var("WHEELS") {
-        settings.wheel_roughness =
-            serde_json::from_str(&format!("\"{w}\"")).expect("WHEELS names a class or auto");
     }
     if let Ok(a) = std::env::var("DISC") {
         settings.discretisation_fraction = a.parse().expect("DISC is a number");

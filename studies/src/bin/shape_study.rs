@@ -11,6 +11,8 @@
 //! - **rough bottom**: a cast-iron tread's roughness (CNOSSOS-EU `c`) on the whole tread, and
 //!   inside the flat a second draw raised by a factor drawn in 1–3.
 //!
+//! `TREAD=none` leaves the roughness out (the shape alone).
+//!
 //! The pass is simulated from the trace (no Eq. 9 flat; the raw trace, as the independent
 //! implementation's rough-flat passes; `FILTER=default` for the contact patch and rolling
 //! circle) at `Calibration::converged_reference`, errors per Eq. 1, and identified with the
@@ -18,7 +20,6 @@
 //! the tread's median, `L0 = √(8·d·R_w)`; "held" means that L0 inside the answer's L0 range.
 //! Each case is also run as its Eq. 9 original (the same errors) for comparison.
 use rayon::prelude::*;
-use std::path::PathBuf;
 use wheelflat::identify::synth::{synthesize_on, FieldNoise, PassSurfaces};
 use wheelflat::identify::{Extras, Identifier, Measurement};
 use wheelflat::model::surface::{wheel_roughness, RoughnessClass};
@@ -80,7 +81,8 @@ fn shaped(flat: &Flat, radius: f64, seed: u64, k: u64) -> (Trace, f64, String) {
         let p = (s / t.spacing_m()).round() as usize % d.len();
         d[p]
     };
-    for (i, v) in e.iter_mut().enumerate() {
+    let rough = std::env::var("TREAD").map_or(true, |t| t != "none");
+    for (i, v) in e.iter_mut().enumerate().filter(|_| rough) {
         let s = i as f64 * dx;
         *v += at(&tread, s);
         if s <= l {
@@ -100,14 +102,7 @@ fn shaped(flat: &Flat, radius: f64, seed: u64, k: u64) -> (Trace, f64, String) {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    if args.len() < 5 {
-        panic!("usage: shape_study BANK CACHE CASES SEED");
-    }
-    let (bank, cal) = study::open_bank(&args[1]);
-    let cache = PathBuf::from(&args[2]);
-    let cases: usize = args[3].parse().expect("CASES");
-    let seed: u64 = args[4].parse().expect("SEED");
+    let (bank, cal, cache, cases, seed, _) = study::cached_args("shape_study", "");
     let filter = match std::env::var("FILTER").as_deref() {
         Ok("default") => ContactFilter::DEFAULT,
         _ => ContactFilter {
@@ -115,7 +110,6 @@ fn main() {
             rolling_circle: false,
         },
     };
-    std::fs::create_dir_all(&cache).expect("cache folder");
     let model = coverage::converged_model(&cal);
     let radius = cal.vehicle.wheel_radius_m;
     let flats = coverage::truths_within(&cal, cases, seed, 0.0);
