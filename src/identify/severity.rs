@@ -153,7 +153,7 @@ impl Severity {
     /// The train table's rule in words.
     pub fn train_rule(s: &IdentificationParams) -> String {
         format!(
-        "none: no flat detected (every sample within the good wheel's bounds: the table's absolute errors plus {} kN and {} % of the force, after each sensor's gain); otherwise by the upper L0 bound of the wheel's candidate model set: urgent (remove within 24 h) from {} mm, inspect from {} mm, monitor below; inspect when every instance is falsified (the model is refuted)",
+        "none: no flat detected (every sample within the good wheel's bounds: the table's absolute errors plus {} kN and {} % of the force, after each sensor's gain, and each pass's roughness bound unless round wheels on a smooth rail are stated); an out-of-round wheel named is none too; otherwise by the upper L0 bound of the wheel's candidate model set: urgent (remove within 24 h) from {} mm, inspect from {} mm, monitor below; inspect when every instance is falsified (the model is refuted)",
         s.detection_allowance_kn, 100.0 * s.detection_allowance_fraction, s.urgent_l0_mm, s.inspect_l0_mm
     )
     }
