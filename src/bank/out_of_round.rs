@@ -73,14 +73,7 @@ pub fn compute(
     let windows = |r: &crate::model::Response| -> Vec<Vec<f64>> {
         axes.iter()
             .zip(&index)
-            .map(|(a, i)| match i {
-                Some(i) => r
-                    .window(*i, a.first_sample, a.samples)
-                    .iter()
-                    .map(|v| v / 1e3)
-                    .collect(),
-                None => Vec::new(),
-            })
+            .map(|(a, i)| i.map_or(Vec::new(), |i| super::roughness::window_kn(r, i, a)))
             .collect()
     };
     let round = windows(&sim.run(None, Record::default())?);

@@ -101,14 +101,18 @@ fn wheel_classes() -> Vec<Option<RoughnessClass>> {
 fn windows(resp: &Response, axes: &[(usize, &SensorAxis)]) -> Vec<(Vec<f64>, Vec<f64>)> {
     axes.iter()
         .map(|&(i, a)| {
-            let raw: Vec<f64> = resp
-                .window(i, a.first_sample, a.samples)
-                .iter()
-                .map(|v| v / 1e3)
-                .collect();
+            let raw = window_kn(resp, i, a);
             let averaged = centred_average(&raw, &BINOMIAL5);
             (raw, averaged)
         })
+        .collect()
+}
+
+/// Bank axis `a`'s window of a run's pad force at the calibration's sensor `i` (kN).
+pub(crate) fn window_kn(resp: &Response, i: usize, a: &SensorAxis) -> Vec<f64> {
+    resp.window(i, a.first_sample, a.samples)
+        .iter()
+        .map(|v| v / 1e3)
         .collect()
 }
 

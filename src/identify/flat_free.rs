@@ -26,6 +26,17 @@ impl Identifier {
         detect::detect(series, &templates, bounds)
     }
 
+    /// How detection compares a pass: through the average, or sample by sample where the
+    /// settings state round wheels on a smooth rail (as every pass was before roughness was
+    /// allowed for).
+    pub(super) fn detection_comparison(&self) -> Comparison {
+        if self.settings.round_wheels_stated() {
+            Comparison::Samples
+        } else {
+            Comparison::Binomial5
+        }
+    }
+
     /// The bank's departures table of comparison `c` (read from its file, or computed and
     /// stored on first use; kept for the next pass).
     pub fn departures(&self, c: Comparison) -> Result<Arc<Departures>, IdentifyError> {
@@ -47,13 +58,7 @@ impl Identifier {
         axes: &[usize],
         bounds: &detect::TableBounds,
     ) -> Result<DetectionLimit, IdentifyError> {
-        // The detection compares through the average unless the wheels are stated round.
-        let c = if self.settings.round_wheels_stated() {
-            Comparison::Samples
-        } else {
-            Comparison::Binomial5
-        };
-        let d = self.departures(c)?;
+        let d = self.departures(self.detection_comparison())?;
         let detected = detect::detected(&d, axes, bounds);
         let mut limit = detect::limit_of(&self.params.l0_mm, &detected, |_| true);
         let codes = &self.params.flat_wheel;

@@ -166,6 +166,9 @@ pub struct Identifier {
     load_levels: Mutex<std::collections::HashMap<usize, (f64, [f64; 2])>>,
     /// The bank's roughness table, loaded when a pass first needs it ([`roughness`]).
     roughness: Mutex<Option<std::sync::Arc<crate::bank::roughness::RoughnessTable>>>,
+    /// The high-frequency level the settings' noise alone gives ([`roughness::noise_hf_kn`]),
+    /// drawn when a pass first needs it.
+    noise_hf: std::sync::OnceLock<f64>,
     /// The bank's out-of-round basis, simulated when a pass first needs it ([`out_of_round`]).
     out_of_round: Mutex<Option<std::sync::Arc<crate::bank::out_of_round::OutOfRoundBasis>>>,
 }
@@ -223,6 +226,7 @@ impl Identifier {
             flat_free_averaged,
             load_levels: Mutex::new(std::collections::HashMap::new()),
             roughness: Mutex::new(None),
+            noise_hf: std::sync::OnceLock::new(),
             out_of_round: Mutex::new(None),
         }
     }
@@ -378,7 +382,8 @@ impl Identifier {
         // wheels stated round, sample by sample as every pass did before roughness was
         // allowed for.
         let averaged = Comparison::Binomial5.series(&series);
-        let stated_round = self.settings.round_wheels_stated();
+        let detected_by = self.detection_comparison();
+        let stated_round = detected_by == Comparison::Samples;
         let detection = if stated_round {
             self.detect(&axes, &series, bounds, Comparison::Samples)
         } else {
@@ -395,12 +400,9 @@ impl Identifier {
         let mut detection = detection;
         let strike = detection.spike.as_ref().is_some_and(|t| t.flat_detected);
         if detection.flat_detected && !strike {
-            let (compared, c) = match stated_round {
-                true => (&series, Comparison::Samples),
-                false => (&averaged, Comparison::Binomial5),
-            };
+            let compared = if stated_round { &series } else { &averaged };
             if let Some((fit, mut d)) =
-                self.explain_out_of_round(&axes, compared, &detection, bounds, c)?
+                self.explain_out_of_round(&axes, compared, &detection, bounds, detected_by)?
             {
                 d.spike = detection.spike.take();
                 d.out_of_round = Some(fit);

@@ -211,7 +211,8 @@ impl Identifier {
     /// The roughness a pass whose record's high-frequency level is `hf_kn` is judged with.
     pub fn roughness_use(&self, hf_kn: f64) -> Result<RoughnessUse, IdentifyError> {
         let s = &self.settings;
-        let noise = noise_hf_kn(s);
+        // The settings' noise level: one Monte Carlo per identifier, not per pass.
+        let noise = *self.noise_hf.get_or_init(|| noise_hf_kn(s));
         let rail = s.rail_roughness.class();
         let stated = s.wheel_roughness.stated();
         if rail.is_none() && stated == Some(None) {

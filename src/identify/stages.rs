@@ -297,10 +297,7 @@ impl Identifier {
             .centres
             .iter()
             .map(|&(si, k)| {
-                let t = self.flat_free(axes[si], z.comparison);
-                t[k.saturating_sub(hw)..=(k + hw).min(t.len() - 1)]
-                    .iter()
-                    .fold(0.0f64, |m, &g| m.max(f64::from(g).abs()))
+                self.flat_free_peak_kn(axes[si], k.saturating_sub(hw), k + hw, z.comparison)
             })
             .collect();
         let judge_at = |y: f64, ff: f64| {

@@ -214,3 +214,15 @@ pub fn cached_args(
     let seed: u64 = args[4].parse().expect("SEED");
     (bank, cal, cache, cases, seed, args)
 }
+
+/// The contact filter a study simulates surfaces with: `FILTER=default` (patch and rolling
+/// circle), else none (the raw trace, as the independent implementation uses it).
+pub fn filter_from_env() -> wheelflat::model::ContactFilter {
+    match std::env::var("FILTER").as_deref() {
+        Ok("default") => wheelflat::model::ContactFilter::DEFAULT,
+        _ => wheelflat::model::ContactFilter {
+            patch: false,
+            rolling_circle: false,
+        },
+    }
+}

@@ -61,13 +61,7 @@ fn main() {
         study::cached_args("rough_coverage", "[smooth|norail]");
     let smooth = args.iter().skip(5).any(|a| a == "smooth");
     let with_rail = !args.iter().skip(5).any(|a| a == "norail");
-    let filter = match std::env::var("FILTER").as_deref() {
-        Ok("default") => ContactFilter::DEFAULT,
-        _ => ContactFilter {
-            patch: false,
-            rolling_circle: false,
-        },
-    };
+    let filter = study::filter_from_env();
     let model = coverage::converged_model(&cal);
     // DEPTH_MM=lo:hi draws the flats' depths from that range only (e.g. at a detection limit).
     let mut truth_cal = cal.document().clone();

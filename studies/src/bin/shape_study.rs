@@ -23,7 +23,7 @@ use rayon::prelude::*;
 use wheelflat::identify::synth::{synthesize_on, FieldNoise, PassSurfaces};
 use wheelflat::identify::{Extras, Identifier, Measurement};
 use wheelflat::model::surface::{wheel_roughness, RoughnessClass};
-use wheelflat::model::{ContactFilter, Flat, Surfaces, Trace, WheelSurface};
+use wheelflat::model::{Flat, Surfaces, Trace, WheelSurface};
 use wheelflat_studies::{coverage, study};
 
 /// A uniform draw in [0, 1) from `(seed, k, j)` (splitmix64).
@@ -103,13 +103,7 @@ fn shaped(flat: &Flat, radius: f64, seed: u64, k: u64) -> (Trace, f64, String) {
 
 fn main() {
     let (bank, cal, cache, cases, seed, _) = study::cached_args("shape_study", "");
-    let filter = match std::env::var("FILTER").as_deref() {
-        Ok("default") => ContactFilter::DEFAULT,
-        _ => ContactFilter {
-            patch: false,
-            rolling_circle: false,
-        },
-    };
+    let filter = study::filter_from_env();
     let model = coverage::converged_model(&cal);
     let radius = cal.vehicle.wheel_radius_m;
     let flats = coverage::truths_within(&cal, cases, seed, 0.0);
