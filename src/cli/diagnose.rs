@@ -3,7 +3,7 @@
 use super::args::DiagnoseArgs;
 use super::open_measured;
 use super::progress::Progress;
-use anyhow::Result;
+use anyhow::{Context, Result};
 use wheelflat::identify::Extras;
 use wheelflat::report::tables::diagnosis_text;
 
@@ -25,6 +25,9 @@ pub(super) fn run(a: &DiagnoseArgs) -> Result<()> {
     let sensors = i.sensors.as_deref();
     // The record as recorded: diagnosis asks whether the model explains it.
     let id = identifier.identify(&m, sensors, Extras::AS_RECORDED)?;
+    if id.residual_minimisation.is_none() {
+        return no_flat(&identifier, &m, &id, &a.out);
+    }
     eprintln!(
         "identified: {} of {} instances kept; diagnosing (fits by re-simulation, a minute at most)",
         id.cms.len(),
@@ -71,5 +74,30 @@ pub(super) fn run(a: &DiagnoseArgs) -> Result<()> {
             .calibration
             .map_or(String::new(), |p| format!(", {}", p.display()))
     );
+    Ok(())
+}
+
+/// A pass with no flat detected has no model gap to locate: what is said is where its
+/// departure from the round wheel lives, wheel or rail (`diagnose::surface`), written to
+/// `surface.json` in `out` and printed.
+fn no_flat(
+    identifier: &wheelflat::identify::Identifier,
+    m: &wheelflat::identify::Measurement,
+    id: &wheelflat::identify::Identification,
+    out: &std::path::Path,
+) -> Result<()> {
+    let origin = wheelflat::diagnose::surface::origin(identifier, m, id)?;
+    println!("no flat detected: there is no model gap to locate");
+    let Some(origin) = origin else {
+        println!("departure from the round wheel: no sensor window holds both wheels' passages");
+        return Ok(());
+    };
+    println!("departure from the round wheel: {}", origin.words());
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("creating the output folder {}", out.display()))?;
+    let path = out.join("surface.json");
+    wheelflat::atomic::write_atomically(&path, serde_json::to_string_pretty(&origin)?.as_bytes())
+        .with_context(|| format!("writing {}", path.display()))?;
+    println!("wrote {}", path.display());
     Ok(())
 }

@@ -14,6 +14,7 @@ pub(crate) mod outcome;
 pub(crate) mod restart;
 pub(crate) mod select;
 mod stages;
+pub mod surface;
 
 use crate::audit::AuditError;
 use crate::identify::{Identification, Identifier};
@@ -132,6 +133,9 @@ pub struct Diagnosis {
     /// finding, with the table entry to change.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise_above_table: Option<noise::NoiseAboveTable>,
+    /// Where the departure from the good wheel lives, wheel or rail ([`surface`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub surface: Option<surface::SurfaceOrigin>,
     /// The ranking of the effects (None when there was nothing to explain).
     pub naming: Option<Naming>,
     /// The effect added, when one was named and a local bank asked for.
@@ -318,6 +322,7 @@ pub fn diagnose(
         before_stage,
         noise: None,
         noise_above_table: None,
+        surface: surface::origin(identifier, m, id)?,
         naming: None,
         added: None,
         verdict: String::new(),

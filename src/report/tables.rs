@@ -432,6 +432,9 @@ fn stage_line(name: &str, s: &Stage) -> String {
 pub fn diagnosis_text(d: &Diagnosis) -> String {
     let mut s = format!("{}\n", d.verdict);
     s += &stage_line("before", &d.before_stage);
+    if let Some(o) = &d.surface {
+        s += &format!("departure from the round wheel: {}\n", o.words());
+    }
     if let Some(added) = &d.added {
         s += &stage_line("after", &added.after_stage);
     }

@@ -207,3 +207,62 @@ fn an_out_of_round_good_wheel_is_named_not_sized() {
     assert!(d.flat_detected && d.out_of_round.is_none(), "{}", r.summary);
     assert!(!r.cms.is_empty(), "{}", r.summary);
 }
+
+/// A good-wheel pass on the identify bank's calibration (bank mesh, errors per Eq. 1) with
+/// the surfaces of `spec`.
+fn surface_pass(spec: &SurfaceSpec, seed: u64) -> Measurement {
+    let (_, cal) = bank();
+    let (surfaces, notes) = spec
+        .build(cal.vehicle.wheel_radius_m, cal.rail_length_m())
+        .unwrap();
+    let surf = PassSurfaces {
+        surfaces,
+        filter: ContactFilter::DEFAULT,
+        notes,
+    };
+    let syn = synthesize_on(cal, None, Some(&surf), seed, true, FieldNoise::TABLE).unwrap();
+    Measurement::from_csv(Path::new("surface.csv"), &syn.csv, 2500.0).unwrap()
+}
+
+/// Issue 44: `diagnose` tells a wheel's surface (it travels with its wheel) from the rail's
+/// (the same place under every wheel). The disclosed real treads on the trailing wheel
+/// (rough-good1, 12.9 µm rms; rough-good2) are that wheel's; the polygonal wheel
+/// (polygon-good1, order 6, 30 µm) the leading one's; a smooth good wheel (good1) is noise; a
+/// rail at the EN ISO 3095 limit under round wheels is the rail; both treads drawn cast-iron
+/// (9.1 µm rms) are both wheels'. Measured at the converged reference, 20 passes of each kind
+/// (docs/diagnosis.md, "Wheel or rail"): every one named so.
+#[test]
+fn diagnose_tells_a_wheels_surface_from_the_rails() {
+    use wheelflat::diagnose::surface::{origin, Origin};
+    use wheelflat::model::surface::RoughnessClass;
+    let id = identifier(WheelRoughness::Auto);
+    let found = |m: &Measurement| {
+        let r = id.identify(m, None, Extras::AS_RECORDED).unwrap();
+        let o = origin(&id, m, &r)
+            .unwrap()
+            .expect("both wheels pass the sensors");
+        println!("{}", o.words());
+        o
+    };
+    for (name, want) in [
+        ("rough-good1", Origin::Wheel(WheelPosition::Trailing)),
+        ("polygon-good1", Origin::Wheel(WheelPosition::Leading)),
+        ("good1", Origin::Noise),
+    ] {
+        assert_eq!(found(&measured(name)).origin, want, "{name}");
+    }
+    let rail = SurfaceSpec {
+        rail_roughness: Some((RoughnessClass::RailIso3095, 4)),
+        ..SurfaceSpec::default()
+    };
+    let o = found(&surface_pass(&rail, 5));
+    assert_eq!(o.origin, Origin::Rail);
+    assert!(o.correlation.is_some_and(|c| c > 0.8), "{o:?}");
+    let treads = SurfaceSpec {
+        wheel_roughness: Some((RoughnessClass::CastIron, 6)),
+        ..SurfaceSpec::default()
+    };
+    let o = found(&surface_pass(&treads, 7));
+    assert_eq!(o.origin, Origin::BothWheels);
+    assert!(o.correlation.is_some_and(|c| c.abs() < 0.5), "{o:?}");
+}
