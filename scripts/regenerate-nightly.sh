@@ -10,6 +10,13 @@
 #
 #   scripts/regenerate-nightly.sh CALIBRATION.toml BANK_DIR [extra `bank generate` args]
 #
+# With WHEELFLAT_PASSES set to a folder of the day's good-wheel passes, `wheelflat calibrate
+# --check` first compares the site's track and sensors with CALIBRATION.toml
+# (docs/calibration.md, "Drift and the nightly rebuild"): when they drifted (exit 3) the new
+# calibration replaces CALIBRATION.toml atomically (the old one kept as CALIBRATION.toml.prev)
+# and the bank below is rebuilt from it; `watch` answers from the old bank until the new one
+# is complete and verified (CURRENT switches atomically).
+#
 # Environment: WHEELFLAT (the binary; default `wheelflat` on PATH), WHEELFLAT_KEEP (complete
 # versions to keep, CURRENT's included; default 2).
 # Crontab line (01:15 every night, log appended):
@@ -25,6 +32,20 @@ exec 9>"$bank/.regenerate.lock"
 if ! flock -n 9; then
   echo "$(date -Is) another regeneration holds $bank/.regenerate.lock; skipping"
   exit 0
+fi
+if [ -n "${WHEELFLAT_PASSES:-}" ]; then
+  set +e
+  "$wheelflat" calibrate --check --calibration "$calibration" --passes "$WHEELFLAT_PASSES" \
+    --out "$calibration.new" --report "$bank/calibration-$(date +%F).json"
+  status=$?
+  set -e
+  case $status in
+    0) echo "$(date -Is) calibration: no drift" ;;
+    3) cp -p "$calibration" "$calibration.prev"
+       mv "$calibration.new" "$calibration"
+       echo "$(date -Is) calibration drifted: $calibration replaced (previous kept as $calibration.prev)" ;;
+    *) echo "$(date -Is) calibrate failed (exit $status); the bank stays on $calibration" ;;
+  esac
 fi
 echo "$(date -Is) regenerating $bank from $calibration"
 "$wheelflat" bank generate --calibration "$calibration" --out "$bank" "$@"

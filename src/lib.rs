@@ -23,4 +23,5 @@ pub mod identify;
 pub mod model;
 pub mod pass;
 pub mod report;
+pub mod site;
 pub mod train;

@@ -92,6 +92,10 @@ pub(super) enum Command {
     /// effect of the library with the flat and rank them (BIC), name one only when the evidence
     /// is clear, add it, regenerate a local bank and identify again; report before and after.
     Diagnose(DiagnoseArgs),
+    /// Fit the site's track (support stiffness, voided sleepers) and sensors' relative gains to
+    /// its good-wheel passes, and write the calibrated calibration; `--check` compares with
+    /// the bank's for the nightly rebuild (exit 3 when it drifted).
+    Calibrate(super::calibrate::CalibrateArgs),
     /// Run the main job on built-in defaults: simulate, build the bank on first use (with
     /// progress), make a synthetic field measurement, identify the flat, write the report.
     Demo {

@@ -6,11 +6,12 @@
 //! - [`progress`]: the progress bar or log lines of long jobs.
 //! - one file per command or group: [`calibration`], [`simulate`], [`bank`] (generate,
 //!   merge, info, verify, audit), [`synth`], [`identify`] (identify, report, compare),
-//!   [`watch`], [`train`], [`audit`], [`diagnose`], [`demo`].
+//!   [`watch`], [`train`], [`audit`], [`diagnose`], [`calibrate`], [`demo`].
 
 mod args;
 mod audit;
 mod bank;
+mod calibrate;
 mod calibration;
 mod demo;
 mod diagnose;
@@ -82,6 +83,11 @@ pub fn main() -> ExitCode {
         Command::Compare(a) => identify::compare(&a),
         Command::Audit(a) => audit::run(&a),
         Command::Diagnose(a) => diagnose::run(&a),
+        Command::Calibrate(a) => match calibrate::run(&a) {
+            Ok(0) => Ok(()),
+            Ok(code) => return ExitCode::from(code as u8),
+            Err(e) => Err(e),
+        },
         Command::Train(a) => train::run(&a),
         Command::History(a) => history::run(&a),
         Command::Demo {

@@ -9,6 +9,7 @@ mod audit;
 mod bank;
 mod batch;
 mod bounds;
+mod calibrate;
 mod cli;
 mod cli_bank;
 mod corruption;

@@ -10,7 +10,7 @@ use wheelflat_studies::coverage::{self, holds_truth};
 
 /// The default calibration's population (both wheels, X_p over one revolution, folded) with
 /// the narrow profile's flat sizes and 600-sample windows: CI-sized.
-fn site_small() -> Calibration {
+pub(crate) fn site_small() -> Calibration {
     let narrow = Calibration::narrow_profile();
     let mut c = Calibration::default();
     c.output.window_samples = narrow.output.window_samples;
@@ -21,7 +21,7 @@ fn site_small() -> Calibration {
 }
 
 /// 3,000 stored instances, 12,000 as read.
-fn site_bank() -> &'static CachedBank {
+pub(crate) fn site_bank() -> &'static CachedBank {
     cached_bank("site-small", || site_small().check().unwrap(), 3000, 750)
 }
 

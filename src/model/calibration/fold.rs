@@ -7,6 +7,7 @@
 //! rail's clamped ends break the symmetry; docs/bank.md measures how little.
 
 use super::{Calibration, CalibrationError, CheckedCalibration, PadSensor, PopulationParams};
+use crate::model::Effect;
 
 /// Tolerance on "a whole number of output samples per sleeper bay" (samples).
 const WHOLE_SAMPLES: f64 = 1e-6;
@@ -112,6 +113,28 @@ impl Calibration {
     pub fn check_fold(&self) -> Result<(), CalibrationError> {
         if !self.population.fold_to_one_bay {
             return Ok(());
+        }
+        // Folding reads a strike k bays on from the pads k sleepers before each sensor: the
+        // track must be the same at every sleeper, and every pad read alike. An effect tied to
+        // one place or one sensor breaks that.
+        if let Some(e) = self.effects.iter().find(|e| {
+            matches!(
+                e,
+                Effect::VoidedSleeper { .. }
+                    | Effect::PadStiffness { .. }
+                    | Effect::BallastStiffness { .. }
+                    | Effect::RailDip { .. }
+                    | Effect::SensorGain { .. }
+            )
+        }) {
+            return Err(super::check::invalid(
+                "population.fold_to_one_bay",
+                true,
+                &format!(
+                    "a folded bank reads a strike a few bays on from the pads before each sensor, so the track must be the same at every sleeper and every pad read alike; the effect {} is tied to one place or sensor: set fold_to_one_bay = false (four times the simulations)",
+                    serde_json::to_string(e).unwrap_or_default()
+                ),
+            ));
         }
         let [x0, x1] = self.population.impact_position_m;
         let rev = self.circumference_m();
