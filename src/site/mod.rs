@@ -142,9 +142,10 @@ pub fn calibrate(
             .collect()
     };
     let (held, fitted) = (pick(true), pick(false));
-    if fitted.len() < MIN_PASSES || held.len() < MIN_PASSES / every.max(1) {
+    if fitted.len() < MIN_PASSES || held.is_empty() {
+        let need = (MIN_PASSES * every).div_ceil(every - 1);
         return Err(format!(
-            "{} usable passes: calibration fits at least {MIN_PASSES} and holds back every {every}th",
+            "{} usable passes: calibration needs at least {need} ({MIN_PASSES} fitted, every {every}th held back to measure the residual on)",
             passes.len()
         ));
     }

@@ -32,7 +32,7 @@ pub struct Passes {
 #[derive(Debug, thiserror::Error)]
 pub enum PassesError {
     /// The folder could not be listed.
-    #[error("listing {path}: {source}")]
+    #[error("listing {path}")]
     Folder {
         /// The folder.
         path: PathBuf,

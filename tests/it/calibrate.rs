@@ -255,3 +255,36 @@ fn calibrate_check_flags_a_drifted_track_and_writes_the_new_calibration() {
     assert!(text.contains("no drift"), "{text}");
     assert!(!again.exists());
 }
+
+/// Refusals name what and why: a folder that is not there, too few passes to fit and hold
+/// back, and nothing is written.
+#[test]
+fn calibrate_refuses_a_missing_folder_and_too_few_passes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cal = crate::common::write_calibration(start().document(), tmp.path());
+    let run = |dir: &std::path::Path| {
+        let out = crate::common::wheelflat()
+            .args(["calibrate", "--passes"])
+            .arg(dir)
+            .arg("--calibration")
+            .arg(&cal)
+            .arg("--out")
+            .arg(tmp.path().join("c.toml"))
+            .arg("--report")
+            .arg(tmp.path().join("c.json"))
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        String::from_utf8_lossy(&out.stderr).to_string()
+    };
+    let err = run(&tmp.path().join("nope"));
+    assert!(err.contains("listing") && err.contains("nope"), "{err}");
+    let few = tmp.path().join("few");
+    write_passes(start().document(), &few, 3);
+    let err = run(&few);
+    assert!(
+        err.contains("3 usable passes: calibration needs at least 25"),
+        "{err}"
+    );
+    assert!(!tmp.path().join("c.toml").exists() && !tmp.path().join("c.json").exists());
+}
