@@ -10,8 +10,10 @@
 //! GOOD good wheels and FLATS flats of the site population are written to `CACHE/SITE` once.
 //! Then `calibrate` on the good wheels (the built-in site calibration as the start), writing
 //! `calibrated.toml` and `calibration.json` there, and the fitted values against the hidden
-//! ones. With BANK arguments, each bank identifies every pass: good wheels quiet, flats held,
-//! refuted, median L0 width.
+//! ones (`FIT_MESH=E:S`: the fit at E elements a bay and S steps a sample). With BANK
+//! arguments (a bank or a family over loads), each identifies every pass on the member at its
+//! load: good wheels quiet, flats held, refuted, median L0 width, and how many passes a single
+//! bank's load tolerance would refuse (identified on it anyway).
 use rayon::prelude::*;
 use std::path::Path;
 use wheelflat::identify::synth::{synthesize_on, FieldNoise, PassSurfaces, Truth};
