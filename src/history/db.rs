@@ -199,8 +199,23 @@ impl Db {
         let conn = Connection::open_with_flags(path, flags).map_err(sql)?;
         conn.busy_timeout(std::time::Duration::from_millis(BUSY_TIMEOUT_MS))
             .map_err(sql)?;
-        // The first read tells an SQLite file from anything else.
-        let id: i32 = match conn.query_row("PRAGMA application_id", [], |r| r.get(0)) {
+        // The first read tells an SQLite file from anything else. One statement reads the
+        // three together, from one snapshot: read apart, a reader racing the process that
+        // writes the schema saw its tables without its application id.
+        let head = conn.query_row(
+            "SELECT (SELECT application_id FROM pragma_application_id), \
+                    (SELECT user_version FROM pragma_user_version), \
+                    (SELECT count(*) FROM sqlite_master)",
+            [],
+            |r| {
+                Ok((
+                    r.get::<_, i32>(0)?,
+                    r.get::<_, i32>(1)?,
+                    r.get::<_, i64>(2)?,
+                ))
+            },
+        );
+        let (id, version, tables) = match head {
             Ok(v) => v,
             Err(rusqlite::Error::SqliteFailure(e, _))
                 if e.code == rusqlite::ErrorCode::NotADatabase =>
@@ -209,12 +224,6 @@ impl Db {
             }
             Err(e) => return Err(sql(e)),
         };
-        let version: i32 = conn
-            .query_row("PRAGMA user_version", [], |r| r.get(0))
-            .map_err(sql)?;
-        let tables: i64 = conn
-            .query_row("SELECT count(*) FROM sqlite_master", [], |r| r.get(0))
-            .map_err(sql)?;
         if id == 0 && version == 0 && tables == 0 {
             // An empty SQLite file (or none): made ours. Two processes may both find it empty;
             // the second finds the schema inside its own transaction and leaves it.

@@ -265,7 +265,12 @@ fn main() {
                     Err(e) => {
                         println!("case {k} refused: {e}");
                         refused += 1;
-                        return (k, if k < good { Some(true) } else { None }, f64::NAN, k < good);
+                        return (
+                            k,
+                            if k < good { Some(true) } else { None },
+                            f64::NAN,
+                            k < good,
+                        );
                     }
                 };
                 let r = members.get(i).identify(&m, None, Extras::NONE).unwrap();
