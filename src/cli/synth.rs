@@ -50,14 +50,7 @@ pub(super) fn run(a: &SynthArgs) -> Result<()> {
     let surfaces = if spec.is_empty() {
         None
     } else {
-        let (surfaces, notes) = spec
-            .build(cal.vehicle.wheel_radius_m, cal.rail_length_m())
-            .context("the surfaces asked for")?;
-        Some(PassSurfaces {
-            surfaces,
-            filter: spec.filter,
-            notes,
-        })
+        Some(PassSurfaces::of(&spec, &cal).context("the surfaces asked for")?)
     };
     let syn = synthesize_on(
         &cal,

@@ -72,6 +72,22 @@ pub struct PassSurfaces {
     pub notes: Vec<SurfaceNote>,
 }
 
+impl PassSurfaces {
+    /// The surfaces `spec` asks for on `cal`'s wheels and rail, through `spec`'s contact
+    /// filter.
+    pub fn of(
+        spec: &crate::model::surface::SurfaceSpec,
+        cal: &CheckedCalibration,
+    ) -> Result<PassSurfaces, crate::model::surface::SurfaceError> {
+        let (surfaces, notes) = spec.build(cal.vehicle.wheel_radius_m, cal.rail_length_m())?;
+        Ok(PassSurfaces {
+            surfaces,
+            filter: spec.filter,
+            notes,
+        })
+    }
+}
+
 /// A synthetic measurement: CSV text and its truth.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Synthetic {

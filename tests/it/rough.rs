@@ -135,7 +135,6 @@ fn a_rough_or_polygonal_good_wheel_is_not_sized_as_a_flat() {
 /// A synthetic pass on the identify bank's calibration (bank mesh, errors per Eq. 1, seed
 /// `seed`): the trailing wheel `order`-gonal with `amplitude_um`, and `flat` if given.
 fn out_of_round_pass(order: u32, amplitude_um: f64, flat: Option<&Flat>, seed: u64) -> Measurement {
-    let (_, cal) = bank();
     let spec = SurfaceSpec {
         out_of_round: vec![(
             WheelPosition::Trailing,
@@ -147,16 +146,7 @@ fn out_of_round_pass(order: u32, amplitude_um: f64, flat: Option<&Flat>, seed: u
         )],
         ..SurfaceSpec::default()
     };
-    let (surfaces, notes) = spec
-        .build(cal.vehicle.wheel_radius_m, cal.rail_length_m())
-        .unwrap();
-    let surf = PassSurfaces {
-        surfaces,
-        filter: ContactFilter::DEFAULT,
-        notes,
-    };
-    let syn = synthesize_on(cal, flat, Some(&surf), seed, true, FieldNoise::TABLE).unwrap();
-    Measurement::from_csv(Path::new("oor.csv"), &syn.csv, 2500.0).unwrap()
+    surface_pass(&spec, flat, seed)
 }
 
 /// Issue 44: an out-of-round good wheel was sized as a flat. A 10-sided trailing wheel of
@@ -208,19 +198,12 @@ fn an_out_of_round_good_wheel_is_named_not_sized() {
     assert!(!r.cms.is_empty(), "{}", r.summary);
 }
 
-/// A good-wheel pass on the identify bank's calibration (bank mesh, errors per Eq. 1) with
-/// the surfaces of `spec`.
-fn surface_pass(spec: &SurfaceSpec, seed: u64) -> Measurement {
+/// A pass on the identify bank's calibration (bank mesh, errors per Eq. 1, seed `seed`) with
+/// the surfaces of `spec`, and `flat` if given.
+fn surface_pass(spec: &SurfaceSpec, flat: Option<&Flat>, seed: u64) -> Measurement {
     let (_, cal) = bank();
-    let (surfaces, notes) = spec
-        .build(cal.vehicle.wheel_radius_m, cal.rail_length_m())
-        .unwrap();
-    let surf = PassSurfaces {
-        surfaces,
-        filter: ContactFilter::DEFAULT,
-        notes,
-    };
-    let syn = synthesize_on(cal, None, Some(&surf), seed, true, FieldNoise::TABLE).unwrap();
+    let surf = PassSurfaces::of(spec, cal).unwrap();
+    let syn = synthesize_on(cal, flat, Some(&surf), seed, true, FieldNoise::TABLE).unwrap();
     Measurement::from_csv(Path::new("surface.csv"), &syn.csv, 2500.0).unwrap()
 }
 
@@ -255,14 +238,14 @@ fn diagnose_tells_a_wheels_surface_from_the_rails() {
         rail_roughness: Some((RoughnessClass::RailIso3095, 4)),
         ..SurfaceSpec::default()
     };
-    let o = found(&surface_pass(&rail, 5));
+    let o = found(&surface_pass(&rail, None, 5));
     assert_eq!(o.origin, Origin::Rail);
     assert!(o.correlation.is_some_and(|c| c > 0.8), "{o:?}");
     let treads = SurfaceSpec {
         wheel_roughness: Some((RoughnessClass::CastIron, 6)),
         ..SurfaceSpec::default()
     };
-    let o = found(&surface_pass(&treads, 7));
+    let o = found(&surface_pass(&treads, None, 7));
     assert_eq!(o.origin, Origin::BothWheels);
     assert!(o.correlation.is_some_and(|c| c.abs() < 0.5), "{o:?}");
 }

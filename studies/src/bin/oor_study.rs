@@ -56,14 +56,7 @@ fn main() {
             filter: ContactFilter::DEFAULT,
             ..SurfaceSpec::default()
         };
-        let (surfaces, notes) = spec
-            .build(cal.vehicle.wheel_radius_m, cal.rail_length_m())
-            .expect("surfaces");
-        let surf = PassSurfaces {
-            surfaces,
-            filter: ContactFilter::DEFAULT,
-            notes,
-        };
+        let surf = PassSurfaces::of(&spec, &cal).expect("surfaces");
         let syn = synthesize_on(
             &model,
             None,

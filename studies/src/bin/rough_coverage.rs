@@ -38,14 +38,7 @@ fn surfaces(
         filter,
         ..SurfaceSpec::default()
     };
-    let (surfaces, notes) = spec
-        .build(cal.vehicle.wheel_radius_m, cal.rail_length_m())
-        .expect("surfaces");
-    Some(PassSurfaces {
-        surfaces,
-        filter,
-        notes,
-    })
+    Some(PassSurfaces::of(&spec, cal).expect("surfaces"))
 }
 
 fn median(mut v: Vec<f64>) -> f64 {

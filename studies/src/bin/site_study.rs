@@ -127,14 +127,7 @@ fn main() {
             filter: ContactFilter::DEFAULT,
             ..SurfaceSpec::default()
         };
-        let (surfaces, notes) = spec
-            .build(model.vehicle.wheel_radius_m, model.rail_length_m())
-            .unwrap();
-        let surf = PassSurfaces {
-            surfaces,
-            filter: ContactFilter::DEFAULT,
-            notes,
-        };
+        let surf = PassSurfaces::of(&spec, &model).unwrap();
         let flat = (k >= good).then(|| flats_drawn[k - good]);
         let syn = synthesize_on(
             &model,

@@ -34,16 +34,7 @@ fn main() {
             return;
         }
         let (spec, _) = spec_of(k, seed);
-        let surf = (!spec.is_empty()).then(|| {
-            let (surfaces, notes) = spec
-                .build(cal.vehicle.wheel_radius_m, cal.rail_length_m())
-                .expect("surfaces");
-            PassSurfaces {
-                surfaces,
-                filter: ContactFilter::DEFAULT,
-                notes,
-            }
-        });
+        let surf = (!spec.is_empty()).then(|| PassSurfaces::of(&spec, &cal).expect("surfaces"));
         let syn = synthesize_on(
             &model,
             None,
