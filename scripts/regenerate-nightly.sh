@@ -10,8 +10,9 @@
 #
 #   scripts/regenerate-nightly.sh CALIBRATION.toml BANK_DIR [extra `bank generate` args]
 #
-# With WHEELFLAT_PASSES set to a folder of the day's good-wheel passes, `wheelflat calibrate
-# --check` first compares the site's track and sensors with CALIBRATION.toml
+# With WHEELFLAT_PASSES set to a folder of the day's good-wheel passes, or WHEELFLAT_DB to the
+# results database `watch --db` writes (its last 24 hours' "no flat" passes), `wheelflat
+# calibrate --check` first compares the site's track and sensors with CALIBRATION.toml
 # (docs/calibration.md, "Drift and the nightly rebuild"): when they drifted (exit 3) the new
 # calibration replaces CALIBRATION.toml atomically (the old one kept as CALIBRATION.toml.prev)
 # and the bank below is rebuilt from it; `watch` answers from the old bank until the new one
@@ -33,9 +34,15 @@ if ! flock -n 9; then
   echo "$(date -Is) another regeneration holds $bank/.regenerate.lock; skipping"
   exit 0
 fi
+source=()
 if [ -n "${WHEELFLAT_PASSES:-}" ]; then
+  source=(--passes "$WHEELFLAT_PASSES")
+elif [ -n "${WHEELFLAT_DB:-}" ]; then
+  source=(--db "$WHEELFLAT_DB" --hours 24)
+fi
+if [ ${#source[@]} -gt 0 ]; then
   set +e
-  "$wheelflat" calibrate --check --calibration "$calibration" --passes "$WHEELFLAT_PASSES" \
+  "$wheelflat" calibrate --check --calibration "$calibration" "${source[@]}" \
     --out "$calibration.new" --report "$bank/calibration-$(date +%F).json"
   status=$?
   set -e

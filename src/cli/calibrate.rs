@@ -6,7 +6,16 @@ use super::{load_calibration, write_file};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::path::PathBuf;
+use wheelflat::history::Db;
 use wheelflat::site::{self, drift, passes, Interval, Options};
+
+/// Parses `--hours`: 0.1 to 8,760 (a year).
+fn hours(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(h) if (0.1..=8760.0).contains(&h) => Ok(h),
+        _ => Err(format!("`{s}`: hours from 0.1 to 8760")),
+    }
+}
 
 /// Exit status of `calibrate --check` when the calibration drifted (a new one was written).
 pub(super) const DRIFTED: i32 = 3;
@@ -16,8 +25,16 @@ pub(super) const DRIFTED: i32 = 3;
 pub(super) struct CalibrateArgs {
     /// A folder of the site's good-wheel passes (`*.csv`, each with its laser trigger and
     /// speed lines; loads and roughness as they come).
+    #[arg(long, required_unless_present = "db", conflicts_with = "db")]
+    pub passes: Option<PathBuf>,
+    /// Or the results database: the passes it answered "no flat" (or "a flat below the
+    /// population") on every wheel, within `--hours` of its newest (their records where they
+    /// were read, or in the `done/` folder beside, where `watch` moves them).
     #[arg(long)]
-    pub passes: PathBuf,
+    pub db: Option<PathBuf>,
+    /// With `--db`: the passes of the last this many hours (0.1 to 8,760).
+    #[arg(long, default_value_t = 24.0, requires = "db", value_parser = hours)]
+    pub hours: f64,
     /// The site's calibration now (the bank's); the built-in defaults when omitted.
     #[arg(long)]
     pub calibration: Option<PathBuf>,
@@ -43,7 +60,24 @@ pub(super) struct CalibrateArgs {
 /// Runs `calibrate`; returns the process's exit status.
 pub(super) fn run(a: &CalibrateArgs) -> Result<i32> {
     let cal = load_calibration(a.calibration.as_deref())?;
-    let read = passes::read_folder(&a.passes, &cal)?;
+    let (read, source) = match (&a.passes, &a.db) {
+        (Some(dir), _) => (passes::read_folder(dir, &cal)?, dir.display().to_string()),
+        (None, Some(db)) => {
+            let stored = Db::open_existing(db)?.good_wheel_passes(a.hours, passes::MAX_PASSES)?;
+            let files: Vec<PathBuf> = stored
+                .iter()
+                .map(|s| passes::record_now(std::path::Path::new(s)))
+                .collect();
+            let source = format!(
+                "{} ({} passes answered \"no flat\" or \"below the population\" in the last {} h)",
+                db.display(),
+                files.len(),
+                a.hours
+            );
+            (passes::read_files(&files, &cal), source)
+        }
+        (None, None) => bail!("give --passes DIR or --db FILE"),
+    };
     for (f, why) in read.skipped.iter().take(5) {
         eprintln!("set aside {f}: {why}");
     }
@@ -52,15 +86,13 @@ pub(super) fn run(a: &CalibrateArgs) -> Result<i32> {
     }
     if read.passes.is_empty() {
         bail!(
-            "{}: no usable pass ({} set aside)",
-            a.passes.display(),
+            "{source}: no usable pass ({} set aside)",
             read.skipped.len()
         );
     }
     eprintln!(
-        "calibrating on {} passes from {} (every {}th held back)",
+        "calibrating on {} passes from {source} (every {}th held back)",
         read.passes.len(),
-        a.passes.display(),
         a.hold_back
     );
     let clock = std::time::Instant::now();
@@ -69,8 +101,8 @@ pub(super) fn run(a: &CalibrateArgs) -> Result<i32> {
         bootstrap: a.bootstrap as usize,
         seed: cal.identification.seed,
     };
-    let c = site::calibrate(&cal, &read.passes, &opts)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", a.passes.display()))?;
+    let c =
+        site::calibrate(&cal, &read.passes, &opts).map_err(|e| anyhow::anyhow!("{source}: {e}"))?;
     print!("{}", words(&c));
     println!(
         "{} passes fitted, {} held back, {} set aside; {} simulations, {:.1} s",
@@ -128,8 +160,29 @@ fn words(c: &site::SiteCalibration) -> String {
     for v in c.voids.iter().filter(|v| v.gap_mm.high > 0.05) {
         s += &format!("voided sleeper {}: gap {} mm\n", v.sleeper, iv(&v.gap_mm));
     }
-    for g in &c.gains {
+    for (j, g) in c.gains.iter().enumerate() {
         s += &format!("relative gain of {}: × {}\n", g.sensor, iv(&g.factor));
+        if let Some(r) = &c.absolute {
+            s += &format!(
+                "absolute gain of {}: × {} (written)\n",
+                g.sensor,
+                iv(&r.gains[j])
+            );
+        }
+    }
+    match &c.absolute {
+        Some(r) => {
+            s += &format!(
+                "absolute gains: the relative ones × {} (the common level over the table's mean {:.3}, from {} passes of known load)\n",
+                iv(&r.common), r.table_level, r.passes
+            )
+        }
+        None => {
+            s += &format!(
+                "gains relative only: fewer than {} passes with a `# reference_wheel_load_kn` line (the sensors' common level stays the table's)\n",
+                site::reference::MIN_REFERENCE_PASSES
+            )
+        }
     }
     s += &format!(
         "site residual: ±{:.1} % replaces the table's site entries (held-back passes' departures [{:+.1}, {:+.1}] %, the per-pass entries' [{:+.1}, {:+.1}] %)\n",
@@ -139,6 +192,12 @@ fn words(c: &site::SiteCalibration) -> String {
         100.0 * c.per_pass_quantiles[0],
         100.0 * c.per_pass_quantiles[1]
     );
+    for x in &c.set_aside {
+        s += &format!(
+            "set aside {}: its misfit is {:.1}× the passes' median after the fit (a flat, or no good wheel on this track); fitted again without it\n",
+            x.path, x.misfit_over_median
+        );
+    }
     s += &format!(
         "RMS residual of the fitted passes: {:.3} kN → {:.3} kN ({} iterations)\n",
         c.rms_kn[0], c.rms_kn[1], c.iterations

@@ -409,6 +409,27 @@ impl Db {
         Ok(out)
     }
 
+    /// The measurement files of the passes whose every wheel was answered "no flat" or "a
+    /// flat below the population" (what good wheels become when the track has drifted from
+    /// the bank's), within `hours` of the newest pass stored, newest first, at most `limit`:
+    /// what `calibrate --db` reads as the site's good wheels.
+    pub fn good_wheel_passes(&self, hours: f64, limit: usize) -> Result<Vec<String>, DbError> {
+        let mut st = self
+            .conn
+            .prepare(
+                "SELECT p.measurement FROM passes p
+                 WHERE p.time_s >= (SELECT max(time_s) FROM passes) - ?1
+                   AND EXISTS (SELECT 1 FROM wheel_passes w WHERE w.pass_id = p.id)
+                   AND NOT EXISTS (SELECT 1 FROM wheel_passes w WHERE w.pass_id = p.id AND w.claim NOT IN ('none', 'below'))
+                 ORDER BY p.time_s DESC, p.id DESC LIMIT ?2",
+            )
+            .map_err(|e| self.sql(e))?;
+        let rows = st
+            .query_map(params![hours * 3600.0, limit as i64], |r| r.get(0))
+            .map_err(|e| self.sql(e))?;
+        rows.collect::<Result<_, _>>().map_err(|e| self.sql(e))
+    }
+
     /// The passes of one wheel in `window`, oldest first.
     pub fn wheel_passes(&self, wheel_id: &str, window: Window) -> Result<Vec<StoredPass>, DbError> {
         let last = window.last.clamp(1, MAX_WINDOW_PASSES) as i64;

@@ -106,8 +106,17 @@ pub(crate) fn level_factor(id: &IdentificationParams, sensors: usize) -> (f64, [
                 / n as f64
         })
         .collect();
-    // The mean exactly: the sources are independent and uniform, so E[(1 − E)(1 + γ)] is
-    // (1 − ΣE_mid)(1 + Σγ_mid) (scripts/reference computes the same).
+    let mean = mean_level_factor(id);
+    draws.sort_by(f64::total_cmp);
+    let tail = (1.0 - LOAD_INTERVAL_PROBABILITY) / 2.0;
+    let at = |p: f64| draws[((DRAWS - 1) as f64 * p).round() as usize];
+    (mean, [at(tail), at(1.0 - tail)])
+}
+
+/// The mean of the table's level factor `(1 − E_model)·(1 + γ)`, exactly: the sources are
+/// independent and uniform, so it is `(1 − ΣE_mid)(1 + Σγ_mid)` (scripts/reference computes
+/// the same). What a sensor's level over the model is on average at the true load.
+pub(crate) fn mean_level_factor(id: &IdentificationParams) -> f64 {
     let mid = |group: UncertaintyGroup| -> f64 {
         id.uncertainty
             .iter()
@@ -115,11 +124,7 @@ pub(crate) fn level_factor(id: &IdentificationParams, sensors: usize) -> (f64, [
             .map(|u| 0.5 * (u.min + u.max))
             .sum()
     };
-    let mean = (1.0 - mid(UncertaintyGroup::Model)) * (1.0 + mid(UncertaintyGroup::Measurement));
-    draws.sort_by(f64::total_cmp);
-    let tail = (1.0 - LOAD_INTERVAL_PROBABILITY) / 2.0;
-    let at = |p: f64| draws[((DRAWS - 1) as f64 * p).round() as usize];
-    (mean, [at(tail), at(1.0 - tail)])
+    (1.0 - mid(UncertaintyGroup::Model)) * (1.0 + mid(UncertaintyGroup::Measurement))
 }
 
 /// The load of a pass from its detection step on a bank whose static wheel load is

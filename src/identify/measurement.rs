@@ -47,7 +47,15 @@ pub struct Measurement {
     /// The bogie measured (`# bogie_id = …`), if named: its wheels are `<id>/leading` and
     /// `<id>/trailing` in the results database.
     pub bogie_id: Option<String>,
+    /// The wheel's static load (kN) known from elsewhere (`# reference_wheel_load_kn = …`: a
+    /// weighbridge, or the vehicle named in the consist), if given: what `calibrate` reads the
+    /// sensors' absolute gains from (docs/calibration.md, "Absolute gains").
+    pub reference_wheel_load_kn: Option<f64>,
 }
+
+/// The range a reference wheel load may take (kN): a tram's empty wheel to a heavy-haul
+/// wagon's loaded one, with room.
+pub(crate) const REFERENCE_WHEEL_LOAD_KN: [f64; 2] = [5.0, 300.0];
 
 /// The longest bogie id (characters).
 pub(crate) const MAX_BOGIE_ID_CHARS: usize = 64;
@@ -90,6 +98,7 @@ impl Measurement {
         let mut laser = None;
         let mut speed = None;
         let mut bogie_id = None;
+        let mut reference = None;
         let mut header: Option<(usize, Vec<String>)> = None;
         let mut time = Vec::new();
         let mut columns: Vec<Vec<f64>> = Vec::new();
@@ -130,6 +139,18 @@ impl Measurement {
                         "bogie_id" => {
                             let id = check_bogie_id(v).map_err(|e| bad(path, line_no, e))?;
                             bogie_id = Some(id.to_string());
+                        }
+                        "reference_wheel_load_kn" => {
+                            let [lo, hi] = REFERENCE_WHEEL_LOAD_KN;
+                            let x = parse(v)?;
+                            if !(lo..=hi).contains(&x) {
+                                return Err(bad(
+                                    path,
+                                    line_no,
+                                    format!("`{k}` = {x} kN: a wheel's static load is read in {lo}–{hi} kN"),
+                                ));
+                            }
+                            reference = Some(x);
                         }
                         _ => {}
                     }
@@ -280,6 +301,7 @@ impl Measurement {
             laser_trigger_s: laser,
             speed_km_per_h: speed,
             bogie_id,
+            reference_wheel_load_kn: reference,
         })
     }
 
@@ -360,6 +382,7 @@ impl Measurement {
             laser_trigger_s: self.laser_trigger_s.map(|t| t * r),
             speed_km_per_h: Some(bank_km_per_h),
             bogie_id: self.bogie_id.clone(),
+            reference_wheel_load_kn: self.reference_wheel_load_kn,
         }
     }
 
@@ -412,47 +435,6 @@ impl Measurement {
     }
 }
 
-/// Best shift (bank time = file time + shift) by normalised cross-correlation of the measured
-/// series with the bank's flat-free prediction, over whole-sample shifts that keep every window
-/// inside the record. `pairs` are (measurement sensor index, bank axis, flat-free template).
-pub(crate) fn cross_correlate(
-    m: &Measurement,
-    pairs: &[(usize, &SensorAxis, &[f32])],
-) -> Option<(f64, f64)> {
-    let rate = 1.0 / m.dt_s;
-    // File sample k sits at bank time t0 + k·dt + shift; choose shifts that put file samples
-    // exactly on bank samples: shift = (g − k0)·dt − t0 for integer g − k0.
-    let n = m.len() as i64;
-    let mut best: Option<(f64, f64)> = None;
-    let lo = pairs.iter().map(|(_, a, _)| a.first_sample as i64).min()?;
-    let hi = pairs
-        .iter()
-        .map(|(_, a, _)| (a.first_sample + a.samples) as i64)
-        .max()?;
-    // offset o: bank sample G corresponds to file sample G − o.
-    for o in (hi - n)..=lo {
-        let mut num = 0.0;
-        let mut yy = 0.0;
-        let mut gg = 0.0;
-        for (s, axis, template) in pairs {
-            let y = &m.values_kn[*s];
-            for (k, &g) in template.iter().enumerate() {
-                let idx = axis.first_sample as i64 + k as i64 - o;
-                let v = y[idx as usize];
-                num += v * g as f64;
-                yy += v * v;
-                gg += g as f64 * g as f64;
-            }
-        }
-        let c = num / (yy * gg).sqrt().max(1e-300);
-        if best.is_none_or(|(_, b)| c > b) {
-            let shift = o as f64 / rate - m.t0_s;
-            best = Some((shift, c));
-        }
-    }
-    best
-}
-
 /// One measured series, resampled onto a sensor's bank window.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MeasuredSeries {
@@ -482,7 +464,30 @@ mod tests {
             laser_trigger_s: Some(0.2),
             speed_km_per_h: speed,
             bogie_id: None,
+            reference_wheel_load_kn: None,
         }
+    }
+
+    #[test]
+    fn a_reference_load_is_read_and_checked() {
+        let body = "time_s,rps1_kn\n0.0,1.0\n0.0004,1.1\n0.0008,1.2\n";
+        let read = |head: &str| {
+            Measurement::from_csv(Path::new("p.csv"), &format!("{head}{body}"), 2500.0)
+        };
+        let m = read("# reference_wheel_load_kn = 49.5\n").unwrap();
+        assert_eq!(m.reference_wheel_load_kn, Some(49.5));
+        assert_eq!(read("").unwrap().reference_wheel_load_kn, None);
+        let e = read("# reference_wheel_load_kn = 4950\n")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("p.csv, line 1") && e.contains("4950") && e.contains("5–300 kN"),
+            "{e}"
+        );
+        let e = read("# reference_wheel_load_kn = heavy\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("`heavy` is not a finite number"), "{e}");
     }
 
     #[test]

@@ -2,10 +2,10 @@
 //! the bank's time axis, the measured series on the bank's windows, and their perceptually
 //! important points.
 
-use super::measurement;
 use super::pip::perceptually_important_points;
 use super::result::{Alignment, AlignmentMethod, MeasuredSeries};
 use super::{Identifier, IdentifyError, Measurement};
+use crate::bank::schema::SensorAxis;
 
 /// A measurement made ready for comparison with the bank.
 pub(super) struct Prepared {
@@ -93,14 +93,13 @@ impl Identifier {
                     .iter()
                     .map(|&(mi, bi)| (mi, &meta.sensors[bi], meta.flat_free_kn[bi].as_slice()))
                     .collect();
-                let (shift_s, c) = measurement::cross_correlate(m, &pairs).ok_or_else(|| {
-                    IdentifyError::TooShort {
+                let (shift_s, c) =
+                    cross_correlate(m, &pairs).ok_or_else(|| IdentifyError::TooShort {
                         path: m.path.clone(),
                         sensor: m.sensors[used[0].0].clone(),
                         needed: [meta.sensors[used[0].1].t0_s, meta.sensors[used[0].1].t0_s],
                         recorded: [m.t0_s, m.t0_s + (m.len() - 1) as f64 * m.dt_s],
-                    }
-                })?;
+                    })?;
                 Alignment {
                     method: AlignmentMethod::CrossCorrelation,
                     shift_s,
@@ -188,4 +187,42 @@ impl Identifier {
             })
             .collect()
     }
+}
+
+/// Best shift (bank time = file time + shift) by normalised cross-correlation of the measured
+/// series with the bank's flat-free prediction, over whole-sample shifts that keep every window
+/// inside the record. `pairs` are (measurement sensor index, bank axis, flat-free template).
+fn cross_correlate(m: &Measurement, pairs: &[(usize, &SensorAxis, &[f32])]) -> Option<(f64, f64)> {
+    let rate = 1.0 / m.dt_s;
+    // File sample k sits at bank time t0 + k·dt + shift; choose shifts that put file samples
+    // exactly on bank samples: shift = (g − k0)·dt − t0 for integer g − k0.
+    let n = m.len() as i64;
+    let mut best: Option<(f64, f64)> = None;
+    let lo = pairs.iter().map(|(_, a, _)| a.first_sample as i64).min()?;
+    let hi = pairs
+        .iter()
+        .map(|(_, a, _)| (a.first_sample + a.samples) as i64)
+        .max()?;
+    // offset o: bank sample G corresponds to file sample G − o.
+    for o in (hi - n)..=lo {
+        let mut num = 0.0;
+        let mut yy = 0.0;
+        let mut gg = 0.0;
+        for (s, axis, template) in pairs {
+            let y = &m.values_kn[*s];
+            for (k, &g) in template.iter().enumerate() {
+                let idx = axis.first_sample as i64 + k as i64 - o;
+                let v = y[idx as usize];
+                num += v * g as f64;
+                yy += v * v;
+                gg += g as f64 * g as f64;
+            }
+        }
+        let c = num / (yy * gg).sqrt().max(1e-300);
+        if best.is_none_or(|(_, b)| c > b) {
+            let shift = o as f64 / rate - m.t0_s;
+            best = Some((shift, c));
+        }
+    }
+    best
 }

@@ -45,6 +45,10 @@ type Evaluator<'a> = dyn Fn(&[Params], &mut usize) -> Result<Vec<Evaluation>, St
 /// split: docs/calibration.md).
 pub type Params = Vec<f64>;
 
+/// A pass at its load bin: per sensor the amplitude, and its misfit
+/// ([`TrackFit::misfits`]).
+type AtBin = (Vec<f64>, [f64; 2]);
+
 /// The track model a fit varies.
 pub struct TrackFit {
     /// The calibration without the effects the fit owns (voided sleepers next to the sensors).
@@ -109,6 +113,11 @@ impl TrackFit {
             },
             start,
         )
+    }
+
+    /// The base's static wheel load (N): a template's relative load is over it.
+    pub fn wheel_load_n(&self) -> f64 {
+        self.wheel_load_n
     }
 
     /// The calibration with parameters `p` (and the base's wheel load).
@@ -479,6 +488,30 @@ impl TrackFit {
     /// Per pass, per sensor, the amplitude of the good wheel with parameters `p` at the pass's
     /// load bin (the passes held back from the fit are read so).
     pub fn amplitudes_at(&self, p: &[f64], passes: &[SitePass]) -> Result<Vec<Vec<f64>>, String> {
+        Ok(self
+            .at_bins(p, passes)?
+            .into_iter()
+            .map(|(a, _)| a)
+            .collect())
+    }
+
+    /// Per pass, how far it is from a good wheel on this track with parameters `p` at its
+    /// load bin (amplitudes profiled), whatever its load: `[sum of squares left over its own
+    /// sum of squares, largest residual over the residual's RMS]` — the first grows with
+    /// anything the good wheel lacks, the second with what is concentrated in a few samples
+    /// (a flat's impacts) rather than spread over the pass (a rough tread, a track not yet
+    /// fitted).
+    pub fn misfits(&self, p: &[f64], passes: &[SitePass]) -> Result<Vec<[f64; 2]>, String> {
+        Ok(self
+            .at_bins(p, passes)?
+            .into_iter()
+            .map(|(_, m)| m)
+            .collect())
+    }
+
+    /// Per pass at its load bin: the amplitudes, and `[sum of squares left over its own,
+    /// largest residual over the residual's RMS]`.
+    fn at_bins(&self, p: &[f64], passes: &[SitePass]) -> Result<Vec<AtBin>, String> {
         let bins = self.load_bins(p, passes, &mut 0)?;
         let distinct = distinct(&bins);
         let t = self.templates_at(p, &distinct)?;
@@ -486,8 +519,20 @@ impl TrackFit {
             .iter()
             .zip(&bins)
             .map(|(x, b)| {
-                let i = distinct.iter().position(|d| d == b).unwrap_or(0);
-                amplitudes(&x.series_kn, &t[i])
+                let g = &t[distinct.iter().position(|d| d == b).unwrap_or(0)];
+                let a = amplitudes(&x.series_kn, g);
+                let (mut sse, mut total, mut peak, mut n) = (0.0, 0.0, 0.0f64, 0usize);
+                for ((y, g), c) in x.series_kn.iter().zip(g).zip(&a) {
+                    for (y, g) in y.iter().zip(g) {
+                        let r = y - c * g;
+                        sse += r * r;
+                        total += y * y;
+                        peak = peak.max(r.abs());
+                        n += 1;
+                    }
+                }
+                let rms = (sse / n.max(1) as f64).sqrt();
+                (a, [sse / total.max(1e-12), peak / rms.max(1e-12)])
             })
             .collect())
     }

@@ -7,12 +7,15 @@
 pub mod drift;
 pub mod fit;
 pub mod passes;
+pub mod reference;
 mod residual;
+pub mod screen;
 pub mod table;
 
 use crate::model::{Calibration, CheckedCalibration, Effect};
 use fit::{TrackFit, PRIOR_FACTOR};
 use passes::SitePass;
+use reference::{Reference, MIN_REFERENCE_PASSES};
 use serde::{Deserialize, Serialize};
 
 /// Settings of a calibration.
@@ -109,6 +112,11 @@ pub struct SiteCalibration {
     pub voids: Vec<Void>,
     /// Relative sensor gains.
     pub gains: Vec<Gain>,
+    /// Absolute sensor gains, from the passes of known load (at least
+    /// [`MIN_REFERENCE_PASSES`]); `None` without them: the gains are then relative and the
+    /// sensors' common level stays the table's.
+    #[serde(default)]
+    pub absolute: Option<Reference>,
     /// Half-width of the site residual (relative) that replaces the site-fixed entries.
     pub site_residual: f64,
     /// The held-back passes' relative departures per sensor (2.5 %, 97.5 %).
@@ -121,16 +129,52 @@ pub struct SiteCalibration {
     pub iterations: usize,
     /// Simulations run.
     pub simulations: usize,
+    /// Passes set aside after the first fit as no good wheel on the fitted track.
+    #[serde(default)]
+    pub set_aside: Vec<screen::SetAside>,
     /// The calibrated calibration.
     pub calibration: Calibration,
 }
 
-/// Calibrates `cal` on `passes` (every `opts.hold_back_every`-th held back).
+/// Calibrates `cal` on `passes` (every `opts.hold_back_every`-th held back); a pass that is
+/// no good wheel on the fitted track is set aside and the fit run again without it
+/// ([`screen`]).
 pub fn calibrate(
     cal: &CheckedCalibration,
     passes: &[SitePass],
     opts: &Options,
 ) -> Result<SiteCalibration, String> {
+    let (c, misfits) = calibrate_once(cal, passes, opts)?;
+    let out = screen::outliers(&misfits);
+    if out.is_empty() {
+        return Ok(c);
+    }
+    let mut sorted: Vec<f64> = misfits.iter().map(|m| m[0]).collect();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2].max(1e-12);
+    let kept: Vec<SitePass> = (0..passes.len())
+        .filter(|i| !out.contains(i))
+        .map(|i| passes[i].clone())
+        .collect();
+    let first = c.simulations;
+    let (mut c, _) = calibrate_once(cal, &kept, opts)?;
+    c.simulations += first;
+    c.set_aside = out
+        .iter()
+        .map(|&i| screen::SetAside {
+            path: passes[i].path.display().to_string(),
+            misfit_over_median: misfits[i][0] / median,
+        })
+        .collect();
+    Ok(c)
+}
+
+/// One calibration on `passes`, and every pass's relative misfit at its optimum.
+fn calibrate_once(
+    cal: &CheckedCalibration,
+    passes: &[SitePass],
+    opts: &Options,
+) -> Result<(SiteCalibration, Vec<[f64; 2]>), String> {
     let every = opts.hold_back_every.max(2);
     let is_held = |i: usize| i % every == every - 1;
     let pick = |held: bool| -> Vec<SitePass> {
@@ -215,14 +259,48 @@ pub fn calibrate(
     let per_pass_draws = table::per_pass_draws(table, track.axes.len(), opts.seed);
     let per_pass = table::quantiles(&mut per_pass_draws.clone());
     let held_q = table::quantiles(&mut departures.clone());
+    let references: Vec<(&SitePass, f64)> = passes
+        .iter()
+        .filter_map(|p| p.reference_wheel_load_kn.map(|l| (p, l)))
+        .collect();
+    let absolute = if references.len() >= MIN_REFERENCE_PASSES {
+        // The site residual is symmetric: the calibrated table's mean level is the same
+        // whatever its width.
+        let mut id = cal.identification.clone();
+        id.uncertainty = table::calibrated(table, 0.0);
+        Some(reference::absolute_gains(
+            &track,
+            &used,
+            &references,
+            &gains,
+            crate::identify::load::mean_level_factor(&id),
+            (opts.bootstrap, opts.seed),
+        )?)
+    } else {
+        None
+    };
+    // Never narrower than the relative gains' intervals. The common level's is not added:
+    // identification reads each pass's load from its record and puts the record on the
+    // bank's load, which takes the sensors' common level with it; the absolute gains serve
+    // the load read (and the member of a family it picks).
     let site_residual = table::site_residual(
         &mut departures,
         &per_pass_draws,
         gains_half_width,
         opts.seed,
     );
+    let calibrated_table = table::calibrated(table, site_residual);
+    // The gains written: the absolute ones where passes of known load gave them.
+    let written: Vec<f64> = gains
+        .iter()
+        .enumerate()
+        .map(|(j, g)| match &absolute {
+            Some(r) if r.gains[j].pinned => r.gains[j].value,
+            _ => g.factor.value,
+        })
+        .collect();
     let mut doc: Calibration = track.calibration(&used);
-    for g in &gains {
+    for (g, &value) in gains.iter().zip(&written) {
         let old = doc
             .effects
             .iter()
@@ -236,10 +314,10 @@ pub fn calibrate(
         }
         doc.effects.push(Effect::SensorGain {
             sensor: g.sensor.clone(),
-            factor: before * g.factor.value,
+            factor: before * value,
         });
     }
-    doc.identification.uncertainty = table::calibrated(table, site_residual);
+    doc.identification.uncertainty = calibrated_table;
     // A void or a gain tied to one sensor breaks the track's sameness that a folded bank
     // rests on (`check_fold`): the calibrated site's bank is simulated whole.
     if doc
@@ -249,20 +327,24 @@ pub fn calibrate(
     {
         doc.population.fold_to_one_bay = false;
     }
-    Ok(SiteCalibration {
+    let misfits = track.misfits(&used, passes)?;
+    let c = SiteCalibration {
         passes_fitted: fitted.len(),
         passes_held_back: held.len(),
         support_factor,
         voids,
         gains,
+        absolute,
         site_residual,
         held_back_quantiles: held_q,
         per_pass_quantiles: per_pass,
         rms_kn: f.rms_kn,
         iterations: f.iterations,
         simulations: f.simulations,
+        set_aside: Vec::new(),
         calibration: doc,
-    })
+    };
+    Ok((c, misfits))
 }
 
 /// The sensors' gains relative to each other: the geometric mean over the passes of each

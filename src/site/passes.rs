@@ -17,6 +17,8 @@ pub struct SitePass {
     pub path: PathBuf,
     /// Per sensor (the calibration's order), the series in kN on its window.
     pub series_kn: Vec<Vec<f64>>,
+    /// The wheel's static load known from elsewhere (kN), if its record gives one.
+    pub reference_wheel_load_kn: Option<f64>,
 }
 
 /// The passes read, and those set aside with why.
@@ -68,15 +70,42 @@ pub fn read_folder(dir: &Path, cal: &CheckedCalibration) -> Result<Passes, Passe
             count: files.len(),
         });
     }
+    Ok(read_files(&files, cal))
+}
+
+/// Reads `files` (at most [`MAX_PASSES`] are read; the rest set aside, named) for
+/// calibration `cal`.
+pub fn read_files(files: &[PathBuf], cal: &CheckedCalibration) -> Passes {
     let axes = sensor_axes(cal);
     let mut out = Passes::default();
-    for f in files {
-        match read_pass(&f, cal, &axes) {
+    for (i, f) in files.iter().enumerate() {
+        let read = if i < MAX_PASSES {
+            read_pass(f, cal, &axes)
+        } else {
+            Err(format!(
+                "beyond the {MAX_PASSES} passes one calibration reads"
+            ))
+        };
+        match read {
             Ok(p) => out.passes.push(p),
             Err(why) => out.skipped.push((f.display().to_string(), why)),
         }
     }
-    Ok(out)
+    out
+}
+
+/// Where the record of a pass stored as `stored` is now: there, or in the `done/` folder
+/// beside it where `watch` moves each pass it answered.
+pub fn record_now(stored: &Path) -> PathBuf {
+    let moved = match (stored.parent(), stored.file_name()) {
+        (Some(dir), Some(name)) => dir.join("done").join(name),
+        _ => return stored.to_path_buf(),
+    };
+    if !stored.exists() && moved.exists() {
+        moved
+    } else {
+        stored.to_path_buf()
+    }
 }
 
 /// One pass on `axes`, or why it cannot be used.
@@ -88,10 +117,23 @@ pub fn read_pass(
     let text = std::fs::read_to_string(path).map_err(|e| format!("reading it: {e}"))?;
     let m =
         Measurement::from_csv(path, &text, cal.output.sample_rate_hz).map_err(|e| e.to_string())?;
-    on_windows(&m, cal, axes).map(|series_kn| SitePass {
-        path: path.to_path_buf(),
-        series_kn,
-    })
+    SitePass::of(&m, cal, axes)
+}
+
+impl SitePass {
+    /// The pass `m` on `axes` (its path, its reference load if it gives one), or why it
+    /// cannot be used.
+    pub fn of(
+        m: &Measurement,
+        cal: &CheckedCalibration,
+        axes: &[SensorAxis],
+    ) -> Result<SitePass, String> {
+        Ok(SitePass {
+            path: m.path.clone(),
+            series_kn: on_windows(m, cal, axes)?,
+            reference_wheel_load_kn: m.reference_wheel_load_kn,
+        })
+    }
 }
 
 /// The series of `m` on `axes` (every sensor of the calibration must be in the record).

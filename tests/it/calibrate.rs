@@ -15,7 +15,7 @@ use wheelflat::identify::synth::{synthesize_pass, FieldNoise};
 use wheelflat::identify::{Extras, Measurement, Members};
 use wheelflat::model::{Calibration, CheckedCalibration, Effect, Flat};
 use wheelflat::site::table::{scope, Scope};
-use wheelflat::site::{self, passes, Options, SiteCalibration};
+use wheelflat::site::{self, passes, passes::SitePass, Options, SiteCalibration};
 
 /// The site's relative sensor gains (hidden from the fit).
 const GAINS: [f64; 5] = [1.04, 0.97, 1.0, 1.02, 0.96];
@@ -24,16 +24,18 @@ fn start() -> CheckedCalibration {
     crate::site::site_small().check().unwrap()
 }
 
-/// The hidden track: pad and ballast ×0.8 (the support ×0.8) and sleeper 17 (RPS3's)
-/// hanging over a 0.8 mm void.
-fn hidden() -> Calibration {
+/// The hidden track: pad and ballast ×0.8 (the support ×0.8) and, with `void`, sleeper 17
+/// (RPS3's) hanging over a 0.8 mm void.
+fn hidden(void: bool) -> Calibration {
     let mut c = start().document().clone();
     c.track.pad_stiffness_n_per_m *= 0.8;
     c.track.ballast_stiffness_n_per_m *= 0.8;
-    c.effects.push(Effect::VoidedSleeper {
-        sleeper: 17,
-        gap_mm: 0.8,
-    });
+    if void {
+        c.effects.push(Effect::VoidedSleeper {
+            sleeper: 17,
+            gap_mm: 0.8,
+        });
+    }
     c
 }
 
@@ -41,8 +43,14 @@ fn hidden() -> Calibration {
 /// Eq. 1 — only its per-pass entries with the site's gains applied (`fresh` false), or every
 /// entry drawn afresh (`fresh`).
 fn pass(k: usize, flat: Option<&Flat>, fresh: bool) -> Measurement {
-    let mut c = hidden();
+    pass_at(k, flat, fresh, true).0
+}
+
+/// [`pass`] with or without the void, and the pass's true static wheel load (kN).
+fn pass_at(k: usize, flat: Option<&Flat>, fresh: bool, void: bool) -> (Measurement, f64) {
+    let mut c = hidden(void);
     c.vehicle.car_body_mass_kg *= 0.7 + 0.6 * ((k * 7919) % 101) as f64 / 100.0;
+    let load_kn = c.vehicle.static_wheel_load_n() / 1e3;
     if !fresh {
         c.identification
             .uncertainty
@@ -56,17 +64,14 @@ fn pass(k: usize, flat: Option<&Flat>, fresh: bool) -> Measurement {
             v.iter_mut().for_each(|x| *x *= g);
         }
     }
-    m
+    (m, load_kn)
 }
 
 fn calibrated(fresh: bool) -> SiteCalibration {
     let cal = start();
     let axes = sensor_axes(&cal);
     let ps: Vec<passes::SitePass> = (0..60)
-        .map(|k| passes::SitePass {
-            path: format!("p{k}.csv").into(),
-            series_kn: passes::on_windows(&pass(k, None, fresh), &cal, &axes).unwrap(),
-        })
+        .map(|k| SitePass::of(&pass(k, None, fresh), &cal, &axes).unwrap())
         .collect();
     site::calibrate(&cal, &ps, &Options::default()).unwrap()
 }
@@ -74,20 +79,23 @@ fn calibrated(fresh: bool) -> SiteCalibration {
 /// The calibrated calibration as a family over car-body masses 0.7–1.3× (7 members of 1,000
 /// stored instances, 4,000 as read).
 fn calibrated_family(c: &SiteCalibration) -> PathBuf {
-    let cal = c.calibration.clone().check().unwrap();
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("site-calibrated-loads");
-    let band = SpeedBand::parse("50:50:1").unwrap();
-    let loads = LoadBand::parse("0.7:1.3:0.1", &cal.vehicle).unwrap();
-    generate_family(
-        &cal,
-        &dir,
-        band,
-        Some(loads),
-        &options(1000, 500),
-        &Quiet,
-        &|_, _, _| {},
+    family_of(
+        &c.calibration,
+        "site-calibrated-loads",
+        Some("0.7:1.3:0.1"),
+        1000,
     )
-    .unwrap();
+}
+
+/// A family of `c` at 50 km/h over the loads `loads` (one member at the calibration's load
+/// when `None`), `instances` stored a member, under the test target's folder `name`.
+fn family_of(c: &Calibration, name: &str, loads: Option<&str>, instances: usize) -> PathBuf {
+    let cal = c.clone().check().unwrap();
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let band = SpeedBand::parse("50:50:1").unwrap();
+    let loads = loads.map(|l| LoadBand::parse(l, &cal.vehicle).unwrap());
+    let opts = options(instances, instances / 2);
+    generate_family(&cal, &dir, band, loads, &opts, &Quiet, &|_, _, _| {}).unwrap();
     dir
 }
 
@@ -287,4 +295,125 @@ fn calibrate_refuses_a_missing_folder_and_too_few_passes() {
         "{err}"
     );
     assert!(!tmp.path().join("c.toml").exists() && !tmp.path().join("c.json").exists());
+}
+
+/// The level the site's sensors and model together read over the table's mean (+6 %): what
+/// good wheels alone cannot tell from the loads.
+const COMMON_LEVEL: f64 = 1.06;
+
+/// Passes of known load (a `# reference_wheel_load_kn` line) give the sensors' absolute
+/// gains, and the load read from a record at the calibrated site is then as close as the
+/// per-pass entries allow; with good wheels alone the site's common level (+6 %) stays in
+/// every load read. A site without a void (the load read is linear in the load there), the
+/// support ×0.8, the relative [`GAINS`] and [`COMMON_LEVEL`].
+#[test]
+fn passes_of_known_load_give_absolute_gains_and_the_load_read_follows() {
+    let cal = start();
+    let axes = sensor_axes(&cal);
+    let site = |k: usize| {
+        let (mut m, load_kn) = pass_at(k, None, false, false);
+        m.values_kn
+            .iter_mut()
+            .for_each(|v| v.iter_mut().for_each(|x| *x *= COMMON_LEVEL));
+        (m, load_kn)
+    };
+    let calibrate_with = |references: bool| {
+        let ps: Vec<SitePass> = (0..40)
+            .map(|k| {
+                let (m, load_kn) = site(k);
+                let mut p = SitePass::of(&m, &cal, &axes).unwrap();
+                // Every other pass weighed.
+                if references && k % 2 == 0 {
+                    p.reference_wheel_load_kn = Some(load_kn);
+                }
+                p
+            })
+            .collect();
+        site::calibrate(&cal, &ps, &Options::default()).unwrap()
+    };
+    let (relative, absolute) = (calibrate_with(false), calibrate_with(true));
+    assert!(relative.absolute.is_none());
+    let r = absolute.absolute.as_ref().expect("20 passes of known load");
+    assert_eq!(r.passes, 20);
+    println!("{r:?}");
+    // The common level the load reader needs: the site's, times the per-pass entries' mean
+    // (1.05: the train system −15/+5 %, which these passes draw), over the calibrated table's
+    // mean (`table_level`, 1.065: it keeps the site's model-form entries) — their geometric
+    // against arithmetic mean differs by < 0.2 %, inside the 1 % allowance.
+    let common = COMMON_LEVEL * 1.05 / r.table_level;
+    let c = r.common;
+    assert!(c.low <= common && common <= c.high, "{c:?} vs {common}");
+    for (g, t) in r.gains.iter().zip(GAINS) {
+        let t = t * common;
+        assert!(g.pinned && g.low <= t && t <= g.high, "{g:?} vs {t}");
+    }
+    // The load read on 40 other passes, through a bank of each calibration.
+    let banks = [
+        family_of(&relative.calibration, "site-relative-gains", None, 500),
+        family_of(&absolute.calibration, "site-absolute-gains", None, 500),
+    ];
+    let errors: Vec<Vec<f64>> = banks
+        .iter()
+        .map(|b| {
+            let mut ms = Members::open(b, None).unwrap();
+            let id = ms.any().unwrap();
+            (300..340)
+                .map(|k| {
+                    let (m, load_kn) = site(k);
+                    let l = id.estimate_load(&m, None).unwrap().unwrap();
+                    l.wheel_load_kn / load_kn - 1.0
+                })
+                .collect()
+        })
+        .collect();
+    let mean = |e: &[f64]| e.iter().sum::<f64>() / e.len() as f64;
+    let within = |e: &[f64]| e.iter().filter(|x| x.abs() <= 0.03).count();
+    println!(
+        "load error: relative gains mean {:+.2} % ({} of 40 within 3 %), absolute mean {:+.2} % ({} of 40)",
+        100.0 * mean(&errors[0]),
+        within(&errors[0]),
+        100.0 * mean(&errors[1]),
+        within(&errors[1])
+    );
+    // Good wheels alone: the common level is read as load (1.06 × 1.05 / 1.065: +4.5 %
+    // expected; measured +4.1 %).
+    assert!(mean(&errors[0]) > 0.025, "relative: {:?}", errors[0]);
+    // Known loads: unbiased to within 2.5 standard errors (the per-pass entries, train
+    // system −15/+5 % and measurement ±2 % a sensor, averaged over 5 sensors: ±2.6 % a
+    // pass, 0.4 % over 40 passes; the common level from 20 weighed passes: 0.6 %; together
+    // 0.7 %; measured −0.5 %) …
+    assert!(mean(&errors[1]).abs() < 0.018, "absolute: {:?}", errors[1]);
+    // … and within 3 % as often as that scatter allows (75 %: 30 of 40; ≥ 24 is 2 standard
+    // deviations of a binomial below it). The goal of 95 % is out of reach while the table
+    // draws the train system afresh per pass and sensor: docs/calibration.md.
+    assert!(within(&errors[1]) >= 24, "absolute: {:?}", errors[1]);
+}
+
+/// A night's passes are good wheels by what the site answered; a flat among them (here three
+/// of forty, 40–60 mm) would pull the track's fit. Each is set aside, named, after the first
+/// fit, and the site found as without them.
+#[test]
+fn a_flat_among_the_good_wheels_is_set_aside_and_the_site_found_as_without_it() {
+    let cal = start();
+    let axes = sensor_axes(&cal);
+    let flats = [(7, 40.0), (23, 50.0), (31, 60.0)];
+    let ps: Vec<SitePass> = (0..40)
+        .map(|k| {
+            let flat = flats
+                .iter()
+                .find(|f| f.0 == k)
+                .map(|f| Flat::from_mm(f.1, 0.4, 0.05, 12.4).unwrap());
+            let mut m = pass(k, flat.as_ref(), false);
+            m.path = format!("p{k}.csv").into();
+            SitePass::of(&m, &cal, &axes).unwrap()
+        })
+        .collect();
+    let c = site::calibrate(&cal, &ps, &Options::default()).unwrap();
+    let names: Vec<&str> = c.set_aside.iter().map(|x| x.path.as_str()).collect();
+    println!("set aside {:?}", c.set_aside);
+    assert_eq!(names, ["p7.csv", "p23.csv", "p31.csv"]);
+    let s = &c.support_factor;
+    assert!(s.low <= 0.8 && 0.8 <= s.high, "support {s:?}");
+    let v = c.voids.iter().find(|v| v.sleeper == 17).unwrap().gap_mm;
+    assert!(v.low <= 0.8 && 0.8 <= v.high, "void at 17: {v:?}");
 }

@@ -22,6 +22,7 @@ mod identify;
 mod kill;
 mod layout;
 mod load;
+mod nightly;
 mod peer;
 mod physics;
 mod refine;

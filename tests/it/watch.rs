@@ -3,11 +3,14 @@
 //! an inbox exactly once, against one bank version, while the bank is regenerated.
 
 use crate::common;
-use crate::common::{narrow_calibration, wheelflat, wheelflat_path, write_calibration};
+use crate::common::{
+    answered, collect_stdout, drop_file, names_in, narrow_calibration, wait_for, wheelflat,
+    wheelflat_path, write_calibration,
+};
 use std::collections::BTreeMap;
-use std::io::{BufRead, Write as _};
+use std::io::Write as _;
 use std::path::Path;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 use wheelflat::bank::{self, Bank, Quiet};
 use wheelflat::identify::Identification;
 use wheelflat::model::CheckedCalibration;
@@ -100,36 +103,6 @@ fn identify_gives_the_verdict_and_json_first_and_report_draws_the_figures_from_i
     );
 }
 
-/// Waits until `cond` holds, at most `secs` seconds.
-fn wait_for(secs: u64, what: &str, mut cond: impl FnMut() -> bool) {
-    let t = Instant::now();
-    while !cond() {
-        assert!(
-            t.elapsed() < Duration::from_secs(secs),
-            "timed out waiting for {what}"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
-}
-
-fn names_in(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .map(|r| {
-            r.map(|e| e.unwrap().file_name().to_string_lossy().to_string())
-                .collect()
-        })
-        .unwrap_or_default();
-    v.sort();
-    v
-}
-
-/// Drops a file into the inbox the way writers must: another name, then a rename.
-fn drop_file(inbox: &Path, name: &str, text: &str) {
-    let part = inbox.join(format!(".{name}.part"));
-    std::fs::write(&part, text).unwrap();
-    std::fs::rename(&part, inbox.join(name)).unwrap();
-}
-
 #[test]
 fn watch_identifies_every_file_once_against_one_bank_while_the_bank_is_regenerated() {
     let cal = narrow_calibration();
@@ -151,13 +124,7 @@ fn watch_identifies_every_file_once_against_one_bank_while_the_bank_is_regenerat
         .stderr(std::process::Stdio::inherit())
         .spawn()
         .unwrap();
-    let log = watcher.stdout.take().unwrap();
-    let log_lines = std::thread::spawn(move || {
-        std::io::BufReader::new(log)
-            .lines()
-            .map(|l| l.unwrap())
-            .collect::<Vec<String>>()
-    });
+    let log_lines = collect_stdout(&mut watcher);
 
     let good = |i: usize| format!("pass-{i:02}.csv");
     let bad: Vec<(String, String)> = vec![
@@ -185,16 +152,7 @@ fn watch_identifies_every_file_once_against_one_bank_while_the_bank_is_regenerat
     ];
     let done = inbox.join("done");
     let failed = inbox.join("failed");
-    let processed = |n: usize| {
-        let (done, failed) = (done.clone(), failed.clone());
-        move || {
-            let f = names_in(&failed)
-                .into_iter()
-                .filter(|n| !n.ends_with(".error.txt"))
-                .count();
-            names_in(&done).len() + f >= n
-        }
-    };
+    let processed = |n: usize| answered(&inbox, n);
 
     // Phase 1: 20 good files and the bad ones, against the first bank.
     for i in 0..20 {

@@ -157,11 +157,23 @@ fn main() {
         .unwrap();
         (m, t)
     };
+    // The true static wheel load of pass k (kN), as drawn above.
+    let true_load_kn = |k: usize| -> f64 {
+        let mut s = site_seed.wrapping_mul(31).wrapping_add(k as u64);
+        let mut v = per_pass_doc.vehicle.clone();
+        v.car_body_mass_kg *= 0.6 + 0.8 * study::splitmix_uniform(&mut s);
+        v.static_wheel_load_n() / 1e3
+    };
+    // REFERENCE=N: every Nth good pass carries its true load (a weighbridge's reading).
+    let weigh_every: Option<usize> = std::env::var("REFERENCE").ok().map(|v| v.parse().unwrap());
     let axes = wheelflat::bank::schema::sensor_axes(&start);
     let site_passes: Vec<passes::SitePass> = (0..good)
-        .map(|k| passes::SitePass {
-            path: dir.join(format!("case-{k}.csv")),
-            series_kn: passes::on_windows(&read(k).0, &start, &axes).unwrap(),
+        .map(|k| {
+            let mut p = passes::SitePass::of(&read(k).0, &start, &axes).unwrap();
+            if weigh_every.is_some_and(|n| k % n == 0) {
+                p.reference_wheel_load_kn = Some(true_load_kn(k));
+            }
+            p
         })
         .collect();
     let clock = std::time::Instant::now();
@@ -238,9 +250,45 @@ fn main() {
         "site {site}: {held} of {total_values} values inside their intervals; calibrate {secs:.1} s ({} simulations, {} iterations), RMS {:.3} → {:.3} kN; site residual ±{:.3} (held back {:?}, per-pass entries {:?})",
         c.simulations, c.iterations, c.rms_kn[0], c.rms_kn[1], c.site_residual, c.held_back_quantiles, c.per_pass_quantiles
     );
+    if let Some(r) = &c.absolute {
+        println!(
+            "  absolute gains from {} weighed passes: common level {:.4} [{:.4}, {:.4}] over the table's {:.4}",
+            r.passes, r.common.value, r.common.low, r.common.high, r.table_level
+        );
+    }
     for bank_dir in &args[7..] {
         // A single bank or a family (over loads: each pass on the member at its load).
         let mut members = Members::open(Path::new(bank_dir), None).expect("bank");
+        if std::env::var("LOAD_ONLY").is_ok() {
+            // The load read on the member each pass is taken on; with absolute gains the
+            // bank's flat-free prediction is the relative bank's times the common level, so
+            // the load read is the relative bank's over it.
+            let common = c.absolute.as_ref().map_or(1.0, |r| r.common.value);
+            let mut errors: Vec<[f64; 2]> = Vec::new();
+            for k in 0..total {
+                let (m, _) = read(k);
+                let Ok(i) = members.member_for_pass(&m, None, true) else {
+                    continue;
+                };
+                let Some(l) = members.get(i).estimate_load(&m, None).unwrap() else {
+                    continue;
+                };
+                let t = true_load_kn(k);
+                errors.push([
+                    l.wheel_load_kn / t - 1.0,
+                    l.wheel_load_kn / common / t - 1.0,
+                ]);
+            }
+            let within = |j: usize| errors.iter().filter(|e| e[j].abs() <= 0.03).count();
+            let mut e1: Vec<f64> = errors.iter().map(|e| e[1]).collect();
+            e1.sort_by(f64::total_cmp);
+            let q = |p: f64| e1[((e1.len() - 1) as f64 * p).round() as usize];
+            println!(
+                "  bank {bank_dir}: load within 3 %: relative gains {}/{}, absolute {}/{} (error 2.5/50/97.5 %: {:+.1} / {:+.1} / {:+.1} %)",
+                within(0), errors.len(), within(1), errors.len(), 100.0 * q(0.025), 100.0 * q(0.5), 100.0 * q(0.975)
+            );
+            continue;
+        }
         let mut refused = 0;
         let results: Vec<(usize, Option<bool>, f64, bool)> = (0..total)
             .map(|k| {

@@ -4,6 +4,7 @@
 use assert_cmd::Command;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
+use std::time::{Duration, Instant};
 use wheelflat::bank::{self, GenerateOptions, Quiet, StorageFormat};
 use wheelflat::model::{Calibration, CheckedCalibration};
 
@@ -174,4 +175,59 @@ pub fn narrow_measurement(cal: &CheckedCalibration, seed: u64, with_trigger: boo
     wheelflat::identify::synth::synthesize(cal, &flat, seed, with_trigger)
         .unwrap()
         .csv
+}
+
+/// Waits until `cond` holds, at most `secs` seconds.
+pub fn wait_for(secs: u64, what: &str, mut cond: impl FnMut() -> bool) {
+    let t = Instant::now();
+    while !cond() {
+        assert!(
+            t.elapsed() < Duration::from_secs(secs),
+            "timed out waiting for {what}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+pub fn names_in(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .map(|r| {
+            r.map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+/// Drops a file into the inbox the way writers must: another name, then a rename.
+pub fn drop_file(inbox: &Path, name: &str, text: &str) {
+    let part = inbox.join(format!(".{name}.part"));
+    std::fs::write(&part, text).unwrap();
+    std::fs::rename(&part, inbox.join(name)).unwrap();
+}
+
+/// The lines `child` writes to its stdout, collected on a thread until it closes it.
+pub fn collect_stdout(child: &mut std::process::Child) -> std::thread::JoinHandle<Vec<String>> {
+    use std::io::BufRead;
+    let out = child.stdout.take().expect("stdout piped");
+    std::thread::spawn(move || {
+        std::io::BufReader::new(out)
+            .lines()
+            .map(|l| l.unwrap())
+            .collect()
+    })
+}
+
+/// Whether at least `n` files of `inbox` were answered by `watch` (moved to `done/`, or to
+/// `failed/` beside their `.error.txt`).
+pub fn answered(inbox: &Path, n: usize) -> impl FnMut() -> bool {
+    let (done, failed) = (inbox.join("done"), inbox.join("failed"));
+    move || {
+        let f = names_in(&failed)
+            .iter()
+            .filter(|n| !n.ends_with(".error.txt"))
+            .count();
+        names_in(&done).len() + f >= n
+    }
 }
