@@ -5,6 +5,8 @@ is wrong.
 - no import circle: within every module of the library, and within the binary's `cli`, the
   children depend on each other one way (a -> b when code in a names something in b by a
   `crate::`, `super::` or `self::` path; unit tests left out);
+- the layer order of docs/architecture.md: a top-level module of the library uses only the
+  modules of the layers below its own ([`LAYERS`], top first), none beside it;
 - no file in src/ over 600 lines;
 - the library (everything in src/ but main.rs and cli/) uses none of clap, indicatif,
   signal-hook, anyhow.
@@ -14,7 +16,43 @@ import re
 import sys
 
 MAX_LINES = 600
+# The library's layers, top first (docs/architecture.md, "Layers").
+LAYERS = [
+    ["pass"],
+    ["report"],
+    ["diagnose"],
+    ["audit", "train", "history", "site"],
+    ["identify"],
+    ["bank"],
+    ["model", "atomic"],
+]
 BINARY_ONLY = ("clap", "indicatif", "signal_hook", "anyhow")
+
+
+EDGES = {}
+
+
+def layer_breaches():
+    """The uses of the library's top-level modules against [`LAYERS`], as messages (after
+    `circles("src", "lib.rs")` has read the edges)."""
+    rank = {m: i for i, layer in enumerate(LAYERS) for m in layer}
+    out = []
+    top = {}
+    for m, ts in EDGES["lib.rs"].items():
+        if not m:
+            continue
+        for t in ts:
+            if t and t[0] != m[0]:
+                top.setdefault(m[0], set()).add(t[0])
+    for a in sorted({m[0] for m in EDGES["lib.rs"] if m}):
+        if a not in rank:
+            out.append(f"module {a} is in none of the documented layers (LAYERS)")
+    for a, ts in sorted(top.items()):
+        for b in sorted(ts):
+            if a in rank and b in rank and rank[b] <= rank[a]:
+                where = "beside it" if rank[b] == rank[a] else "above it"
+                out.append(f"layer order: {a} uses {b}, {where} (docs/architecture.md)")
+    return out
 
 
 def circles(root, crate_root):
@@ -80,6 +118,7 @@ def circles(root, crate_root):
         # `mod x;` children used by bare paths are the module's own: not sibling edges
         edges[m] = {t for t in targets if t is not None and t != m}
     
+    EDGES[crate_root] = edges
     # sibling graphs
     circles = []
     parents = {k[:-1] for k in mods if k}
@@ -118,6 +157,9 @@ def main():
         for par, comp in circles("src", crate_root):
             print(f"import circle in {par}: {' <-> '.join(comp)}")
             bad += 1
+    for msg in layer_breaches():
+        print(msg)
+        bad += 1
     for d, _, fs in os.walk("src"):
         for f in fs:
             if not f.endswith(".rs"):
@@ -137,7 +179,7 @@ def main():
     if bad:
         print(f"house check: {bad} problem(s)")
         sys.exit(1)
-    print("house check: no import circle, no file in src/ over 600 lines, the library free of the binary's crates")
+    print("house check: no import circle, the layers in order, no file in src/ over 600 lines, the library free of the binary's crates")
 
 
 if __name__ == "__main__":

@@ -1,5 +1,5 @@
 //! A family's load band: banks of one calibration at car-body masses across a band, so that
-//! a pass is compared with a bank of its own load (issue 35; docs/bank.md "Bank families:
+//! a pass is compared with a bank of its own load (docs/bank.md "Bank families:
 //! every load"). The band is given as factors of the calibration's car-body mass
 //! (`--loads 0.6:1.1:0.5`: 0.6 and 1.1 × `vehicle.car_body_mass_kg`); a pass's load is
 //! read from its record ([`crate::identify::load`]) and picks the member nearest it in static

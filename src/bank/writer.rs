@@ -35,7 +35,8 @@ pub enum ValueEncoding {
     ByteStreamSplit,
 }
 
-/// How shard files are encoded (chosen by measurement; see the README).
+/// How shard files are encoded (chosen by measurement: docs/performance.md, "Bank encoding
+/// and compression").
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct StorageFormat {
     /// Compression codec.

@@ -2,8 +2,8 @@
 //! sleeper, a sensor, a wheel and polygon order), with its continuous parameters, their
 //! bounds, and seeds (starting values).
 //!
-//! Position-bearing effects are sought over the whole modelled rail the sensors can see
-//! (issue 15): every sleeper of the track for the sleeper effects, and rail-dip seeds every
+//! Position-bearing effects are sought over the whole modelled rail the sensors can see:
+//! every sleeper of the track for the sleeper effects, and rail-dip seeds every
 //! quarter bay from [`DIP_REACH_M`] before the first measured sensor to as far after the last;
 //! a second flat anywhere along a revolution of either wheel.
 

@@ -1,4 +1,4 @@
-//! Diagnosis (issue #5): *locate* where simulation and measurement disagree, *name* the missing
+//! Diagnosis: *locate* where simulation and measurement disagree, *name* the missing
 //! effect ([`name`]), *add* it to the calibration and identify again on a local bank, and show
 //! the gap before and after ([`diagnose`]).
 //!
@@ -34,7 +34,7 @@ pub struct Options {
     /// Bank instances (best by χ² over the whole series) the flat-only fit starts from.
     pub starts: usize,
     /// Estimate the noise from the record ([`noise`]); false keeps the table's independent
-    /// noise (the diagnosis before issue 15, kept to measure against).
+    /// noise (the first diagnosis, kept to measure against).
     pub noise_from_data: bool,
 }
 

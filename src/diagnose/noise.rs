@@ -1,4 +1,4 @@
-//! The noise model from the data (issue 15): the standard deviation σ and lag-1 correlation ρ
+//! The noise model from the data: the standard deviation σ and lag-1 correlation ρ
 //! of an AR(1) noise, estimated from the flat-free parts of the record, so that field noise
 //! larger or more coloured than the uncertainty table's is not taken for a missing effect.
 //!

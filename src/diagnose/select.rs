@@ -1,4 +1,4 @@
-//! Two effects at once (issue 15): forward selection by BIC. When the best single effect is
+//! Two effects at once: forward selection by BIC. When the best single effect is
 //! clearly better than the flat alone but leaves more than noise, every other family is fitted
 //! *with it held* (seeds, then Levenberg–Marquardt over the new effect and X_p), the best
 //! [`PAIRS`] pairs are refitted with the flat and both effects free (from the held fit's flat

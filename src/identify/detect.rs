@@ -1,4 +1,4 @@
-//! Detection before sizing: is there a flat at all? (issue 36; docs/identification.md,
+//! Detection before sizing: is there a flat at all? (docs/identification.md,
 //! "Detection").
 //!
 //! Falsification sizes a flat by ruling instances out at a few points where the measurement

@@ -1,5 +1,5 @@
-//! The bank mesh's discretisation error as an uncertainty source (issue 32;
-//! docs/identification.md, "Discretisation error").
+//! The bank mesh's discretisation error as an uncertainty source (docs/identification.md,
+//! "Discretisation error").
 //!
 //! Against the converged reference, the bank's mesh lands a flat that loses contact a fraction
 //! of a sample early or late: the error at a sample follows the prediction's step between

@@ -1,4 +1,4 @@
-//! The wheel load a pass carries, read from its record (issue 35; docs/identification.md
+//! The wheel load a pass carries, read from its record (docs/identification.md
 //! "Load").
 //!
 //! Away from a flat's strikes a pad's force is the wheel loads spread over the pads: the bank's

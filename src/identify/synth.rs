@@ -126,7 +126,7 @@ pub(crate) fn resolution_step_kn(id: &IdentificationParams) -> f64 {
         .sum()
 }
 
-/// Field-like noise instead of the table's independent noise (issue 15's clean cases with
+/// Field-like noise instead of the table's independent noise (the clean cases with
 /// coloured noise): per sensor an AR(1) series `e_0 = s·u_0`, `e_k = ρ·e_{k−1} + √(1−ρ²)·s·u_k`,
 /// `u_k` the table's independent draw. Stationary: its standard deviation is `s` times the
 /// table's and its lag-1 correlation `ρ`. `FieldNoise::TABLE` (`s = 1`, `ρ = 0`) gives the

@@ -1,4 +1,4 @@
-//! The effect library (issue #5): physical effects beyond the base model, switched on by
+//! The effect library: physical effects beyond the base model, switched on by
 //! listing them under `[[effects]]` in the calibration, and the terms each adds to the
 //! simulation. The track reads the sleeper effects when it is assembled
 //! ([`pad_stiffness_factor`], [`ballast_stiffness_factor`], [`void_gap_m`]); the integrator
@@ -12,9 +12,9 @@ use super::wheel::WheelPosition;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::TAU;
 
-/// A physical effect beyond the base model (issue #5's effect library), switched on by
+/// A physical effect beyond the base model (the effect library), switched on by
 /// listing it under `[[effects]]` in the calibration. Each changes the simulation as its
-/// documentation says; the README lists the equations.
+/// documentation says; docs/diagnosis.md ("The effect library") gives the equations.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Effect {
@@ -100,7 +100,7 @@ pub enum Effect {
         /// Phase φ at t = 0 (degrees).
         phase_deg: f64,
     },
-    /// A second flat (issue 15): a flat of its own on `wheel` (the other wheel, or the flat
+    /// A second flat: a flat of its own on `wheel` (the other wheel, or the flat
     /// wheel at another angle), with the profile of paper Eq. 9 striking once per revolution
     /// from `impact_position_m`: `z = d/2·(1 − cos(2πs/L)) − c/4·(1 − cos(4πs/L))`,
     /// `0 ≤ s ≤ L`, added to that wheel's drop. The integrator takes fine steps around its

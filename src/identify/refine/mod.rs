@@ -1,4 +1,4 @@
-//! Refinement (issue 11, opt-in `identify --refine`): simulate new flats inside the surviving
+//! Refinement (opt-in `identify --refine`): simulate new flats inside the surviving
 //! cells with the bank's calibration and falsify them at the same comparison points, so the
 //! answer is resolved where the measurement is informative instead of at the bank's spacing.
 //!
@@ -25,7 +25,7 @@
 //! The budget is a number of simulations (deterministic: same inputs, same answer on any
 //! thread count), not a time; 640 simulations take about 1.2 s on 2 cores.
 //!
-//! Two studied variants were taken out of the product in issue 34 (their figures, in
+//! Two studied variants were taken out of the product (their figures, in
 //! docs/severity.md and docs/decisions.md, were measured at commit 1e7f4f2 with
 //! `examples/refine_study.rs`, now `studies/src/bin/refine_study.rs`): a witness search
 //! (flats that pass every point with no widening; coverage 0.78–0.83 on 100 cases) and a last

@@ -150,7 +150,8 @@ pub struct OutputParams {
     pub window_samples: usize,
 }
 
-/// Time integration and mesh (chosen by the convergence study in the README).
+/// Time integration and mesh (chosen by the convergence study: docs/performance.md,
+/// "Simulator convergence").
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct IntegrationParams {
@@ -380,7 +381,7 @@ pub struct IdentificationParams {
     pub detection_allowance_fraction: f64,
     /// Sizing also falsifies at each instance's own strikes (`identify::detect`): an instance
     /// whose cell departs from the good wheel by more than the measurement does, at any sensor,
-    /// is ruled out. `false`: the EIP and envelope points alone (as before issue 36).
+    /// is ruled out. `false`: the EIP and envelope points alone (as before detection came first).
     pub falsify_at_departures: bool,
     /// The share of an instance's largest departure its truth may fall short by (the bank
     /// mesh's error at impact peaks against a converged one, and the sampling phase of a short

@@ -73,7 +73,7 @@ footer { color: #777; font-size: 0.85rem; margin-top: 3em; }
 /// [`Identification::falsifications`]; the union of the instances' cells, as in
 /// [`Identification::wheel_ranges`]). None when the CMS is empty.
 ///
-/// Regression (issue 16): the page used to recompute them as the hull of the surviving
+/// Regression: the page used to recompute them as the hull of the surviving
 /// instances, narrower than the union of cells, so `report.html` disagreed with
 /// `identification.json`.
 pub(super) fn cms_ranges(id: &Identification) -> Option<&ParamRanges> {

@@ -225,7 +225,7 @@ fn helpers() {
     assert_eq!(fmt_axis(120.0, 100.0), "120");
 }
 
-/// Regression (issue 16): the HTML recomputed the CMS ranges as the hull of the surviving
+/// Regression: the HTML recomputed the CMS ranges as the hull of the surviving
 /// instances, while `identify` reports the union of their cells, so `report.html` disagreed
 /// with `identification.json`. Here the two differ; the page must show the JSON's.
 #[test]
