@@ -8,7 +8,7 @@
 //! a second flat anywhere along a revolution of either wheel.
 
 use super::fit::{Param, Role};
-use crate::model::{Effect, WheelPosition};
+use crate::model::{Effect, EffectKind, WheelPosition};
 
 /// How far from the outermost measured sensors dips are sought (m): five bays of the default
 /// track, where a sensor's response to a load has fallen below 1 % (decay length
@@ -20,8 +20,8 @@ pub(crate) type Build = Box<dyn Fn(&[f64]) -> Effect + Send + Sync>;
 
 /// A family of an effect kind: one discrete choice, its continuous parameters and seeds.
 pub struct Family {
-    /// The kind (`voided_sleeper`, …).
-    pub kind: &'static str,
+    /// The kind.
+    pub kind: EffectKind,
     /// Where it acts, for people.
     pub location: String,
     /// Continuous parameters.
@@ -72,7 +72,7 @@ pub fn families(ctx: &Context) -> Vec<Family> {
 }
 
 fn family(
-    kind: &'static str,
+    kind: EffectKind,
     location: String,
     params: Vec<Param>,
     seeds: Vec<Vec<f64>>,
@@ -92,7 +92,7 @@ fn sleeper_families(ctx: &Context, out: &mut Vec<Family>) {
     let ln = f64::ln;
     for &k in &ctx.sleepers {
         out.push(family(
-            "voided_sleeper",
+            EffectKind::VoidedSleeper,
             format!("sleeper {k}"),
             vec![Param::new("gap (mm)", 0.0, 5.0, 0.005)],
             vec![vec![0.2], vec![1.0]],
@@ -102,7 +102,7 @@ fn sleeper_families(ctx: &Context, out: &mut Vec<Family>) {
             }),
         ));
         out.push(family(
-            "pad_stiffness",
+            EffectKind::PadStiffness,
             format!("sleeper {k}"),
             vec![Param::new("ln factor", ln(0.02), ln(50.0), 0.01)],
             vec![vec![ln(0.4)], vec![ln(2.5)]],
@@ -112,7 +112,7 @@ fn sleeper_families(ctx: &Context, out: &mut Vec<Family>) {
             }),
         ));
         out.push(family(
-            "ballast_stiffness",
+            EffectKind::BallastStiffness,
             format!("sleeper {k}"),
             vec![Param::new("ln factor", ln(0.02), ln(50.0), 0.01)],
             vec![vec![ln(0.3)], vec![ln(3.0)]],
@@ -155,7 +155,7 @@ fn rail_families(ctx: &Context, out: &mut Vec<Family>) {
         x = x0 + i as f64 * eighth_bay;
     }
     let mut dip = family(
-        "rail_dip",
+        EffectKind::RailDip,
         "rail".into(),
         vec![
             Param::new("position (m)", x0, x1, 0.005).with_role(Role::Position),
@@ -181,7 +181,7 @@ fn rail_families(ctx: &Context, out: &mut Vec<Family>) {
         }
     }
     out.push(family(
-        "rail_irregularity",
+        EffectKind::RailIrregularity,
         "whole rail".into(),
         vec![
             Param::new("wavelength (m)", 0.2, 6.0, 0.002),
@@ -201,7 +201,7 @@ fn wheel_families(ctx: &Context, out: &mut Vec<Family>) {
     for &wheel in &ctx.wheels {
         for order in 1..=ctx.max_order {
             out.push(family(
-                "wheel_out_of_round",
+                EffectKind::WheelOutOfRound,
                 format!("{} wheel, order {order}", wheel.name()),
                 vec![
                     Param::new("A·cos φ (mm)", -3.0, 3.0, 0.005),
@@ -245,7 +245,7 @@ fn wheel_families(ctx: &Context, out: &mut Vec<Family>) {
             x += 0.03;
         }
         let mut f = family(
-            "second_flat",
+            EffectKind::SecondFlat,
             if wheel == flat_wheel {
                 format!("{} wheel (the flat's), another angle", wheel.name())
             } else {
@@ -278,7 +278,7 @@ fn clock_and_body_families(ctx: &Context, out: &mut Vec<Family>) {
     for name in &ctx.sensors {
         let sensor = name.clone();
         out.push(family(
-            "sensor_gain",
+            EffectKind::SensorGain,
             format!("sensor {name}"),
             vec![Param::new("ln factor", ln(0.2), ln(5.0), 0.005)],
             vec![vec![ln(0.7)], vec![ln(1.4)]],
@@ -294,7 +294,7 @@ fn clock_and_body_families(ctx: &Context, out: &mut Vec<Family>) {
     // joint fits end at −5.57, −7.0 and −8.39 %), so its seeds are 1 % apart: one lies in
     // every basin.
     let mut clock = family(
-        "time_offset",
+        EffectKind::TimeOffset,
         "recording clock".into(),
         vec![Param::new("offset (ms)", -30.0, 30.0, 0.05)],
         (-12..=12)
@@ -306,7 +306,7 @@ fn clock_and_body_families(ctx: &Context, out: &mut Vec<Family>) {
     clock.spread = Some((0, 2.0, 3));
     out.push(clock);
     let mut speed = family(
-        "speed_deviation",
+        EffectKind::SpeedDeviation,
         "train".into(),
         vec![Param::new("fraction", -0.3, 0.3, 5e-4)],
         (-20..=20)
@@ -325,7 +325,7 @@ fn clock_and_body_families(ctx: &Context, out: &mut Vec<Family>) {
         }
     }
     out.push(family(
-        "car_body_bounce",
+        EffectKind::CarBodyBounce,
         "car body".into(),
         vec![
             Param::new("frequency (Hz)", 0.3, 10.0, 0.002),

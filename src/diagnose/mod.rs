@@ -146,7 +146,7 @@ pub struct Diagnosis {
     pub timings_s: Vec<(String, f64)>,
 }
 
-pub use name::{Candidate, Naming};
+pub use name::{Candidate, CandidateKind, Naming};
 
 /// Errors of a diagnosis.
 #[derive(Debug, thiserror::Error)]

@@ -19,9 +19,9 @@
 use super::fit::{levenberg_marquardt, Evaluation, FlatVector, Param, Problem, Role};
 pub use super::library::{families, Context, Family};
 use super::library::{location_of, sleeper_of};
-pub use super::outcome::{Candidate, Estimate, Naming};
+pub use super::outcome::{Candidate, CandidateKind, Estimate, Naming};
 use super::restart::fit_with_restart;
-use crate::model::Effect;
+use crate::model::{Effect, EffectKind};
 use rayon::prelude::*;
 
 /// Kinds whose best candidate is refitted with the flat free.
@@ -200,7 +200,7 @@ pub(crate) fn kind_starts(
     families: &[Family],
     seeds: &[(usize, usize)],
     seed_chi2: &[f64],
-    kind: &str,
+    kind: EffectKind,
 ) -> Vec<(usize, usize)> {
     let mut of_kind: Vec<usize> = (0..seeds.len())
         .filter(|&i| families[seeds[i].0].kind == kind && seed_chi2[i].is_finite())
@@ -271,13 +271,13 @@ pub fn name(
 ) -> Naming {
     let n = problem.samples();
     let ln_n = (n as f64).ln();
-    let kinds: Vec<&str> = {
-        let mut k: Vec<&str> = families.iter().map(|f| f.kind).collect();
+    let kinds: Vec<EffectKind> = {
+        let mut k: Vec<EffectKind> = families.iter().map(|f| f.kind).collect();
         k.dedup();
         k
     };
-    let per_kind = |kind: &str| families.iter().filter(|f| f.kind == kind).count();
-    let bic = |chi2: f64, k: usize, kind: &str| {
+    let per_kind = |kind: EffectKind| families.iter().filter(|f| f.kind == kind).count();
+    let bic = |chi2: f64, k: usize, kind: EffectKind| {
         chi2 + k as f64 * ln_n + 2.0 * (per_kind(kind) as f64).ln()
     };
     // Stage 1: every seed, flat held.
@@ -296,7 +296,7 @@ pub fn name(
     // Stage 2: per kind, the two best seeds (of different families when it has several).
     let starts: Vec<(usize, usize)> = kinds
         .iter()
-        .flat_map(|kind| kind_starts(families, &seeds, &seed_chi2, kind))
+        .flat_map(|&kind| kind_starts(families, &seeds, &seed_chi2, kind))
         .collect();
     let held: Vec<Fit> = starts
         .par_iter()
@@ -324,7 +324,7 @@ pub fn name(
     order.sort_by(|&a, &b| score(&held[a]).total_cmp(&score(&held[b])));
     // The best of each of the JOINT best kinds, and the best kind's second place.
     let mut chosen: Vec<usize> = Vec::new();
-    let mut kinds_taken: Vec<&str> = Vec::new();
+    let mut kinds_taken: Vec<EffectKind> = Vec::new();
     for &i in &order {
         let kind = families[held[i].family].kind;
         if kinds_taken.len() < JOINT && !kinds_taken.contains(&kind) {
@@ -407,7 +407,7 @@ pub fn name(
         let z = chi2_z(fit.eval.chi2, (n - k) as f64);
         let flat = flat_mm(&judge.timing.actual(fit.apparent, &effect));
         Candidate {
-            kind: fam.kind.to_string(),
+            kind: CandidateKind::Effect(fam.kind),
             location: location_of(fam, &effect),
             effect: Some(effect),
             parameters: fam
@@ -450,7 +450,7 @@ pub fn name(
     let (outside0, gap0) = problem.outside(judge.identifier, &none.predicted_kn, p);
     let z0 = chi2_z(none.chi2, (n - 4) as f64);
     let no_effect = Candidate {
-        kind: "none".into(),
+        kind: CandidateKind::None,
         location: "—".into(),
         effect: None,
         parameters: Vec::new(),

@@ -2,7 +2,7 @@
 //! parameters, the candidates, the forward step to a second effect, the ranking and verdict.
 
 use super::fit::Role;
-use crate::model::Effect;
+use crate::model::{Effect, EffectKind};
 use serde::{Deserialize, Serialize};
 
 /// A fitted parameter.
@@ -26,7 +26,7 @@ pub struct Estimate {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Candidate {
     /// Effect kind (`voided_sleeper`, …), `none` for the flat alone.
-    pub kind: String,
+    pub kind: CandidateKind,
     /// Where it acts, for people.
     pub location: String,
     /// The effect at its fitted parameters (None for the flat alone).
@@ -65,6 +65,53 @@ pub struct Candidate {
     /// The flat as fitted, apparent impact position (not written out).
     #[serde(skip)]
     pub apparent: [f64; 4],
+}
+
+/// What a candidate adds to the flat: nothing (`none`: the flat alone) or an effect of a
+/// kind. Written as the kind's name, `none` for nothing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(into = "String", try_from = "String")]
+pub enum CandidateKind {
+    /// The flat alone.
+    None,
+    /// An effect of this kind.
+    Effect(EffectKind),
+}
+
+impl CandidateKind {
+    /// The name written: the kind's, or `none`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            CandidateKind::None => "none",
+            CandidateKind::Effect(k) => k.as_str(),
+        }
+    }
+}
+
+impl std::fmt::Display for CandidateKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl From<CandidateKind> for String {
+    fn from(k: CandidateKind) -> String {
+        k.as_str().to_string()
+    }
+}
+
+impl TryFrom<String> for CandidateKind {
+    type Error = String;
+    fn try_from(s: String) -> Result<CandidateKind, String> {
+        if s == "none" {
+            return Ok(CandidateKind::None);
+        }
+        EffectKind::ALL
+            .into_iter()
+            .find(|k| k.as_str() == s)
+            .map(CandidateKind::Effect)
+            .ok_or_else(|| format!("`{s}` is no effect kind nor `none`"))
+    }
 }
 
 /// The ranking and the verdict.

@@ -12,12 +12,12 @@
 use super::fit::{levenberg_marquardt, Evaluation, FlatVector, Param, Problem};
 use super::library::{location_of, Family};
 use super::name::{
-    chi2_z, fit_held, fit_rms, flat_mm, kind_starts, same_place, Candidate, Estimate, Judge,
-    ADEQUATE_Z, CLEARLY_BETTER,
+    chi2_z, fit_held, fit_rms, flat_mm, kind_starts, same_place, Candidate, CandidateKind,
+    Estimate, Judge, ADEQUATE_Z, CLEARLY_BETTER,
 };
 pub(crate) use super::outcome::SecondStep;
 use super::restart::fit_with_restart;
-use crate::model::Effect;
+use crate::model::{Effect, EffectKind};
 use rayon::prelude::*;
 
 /// Kinds (by their best seed's χ²) whose starts are fitted as the second effect.
@@ -46,7 +46,7 @@ pub(crate) fn forward(
 ) -> SecondStep {
     let n = problem.samples();
     let ln_n = (n as f64).ln();
-    let per_kind = |kind: &str| families.iter().filter(|f| f.kind == kind).count();
+    let per_kind = |kind: EffectKind| families.iter().filter(|f| f.kind == kind).count();
     let f1 = &families[first.family];
     let x1: Vec<f64> = first.parameters.iter().map(|p| p.value).collect();
     let e1 = (f1.build)(&x1);
@@ -68,7 +68,7 @@ pub(crate) fn forward(
         })
         .collect();
     // The SECOND_KINDS kinds whose best seed fits best, their starts.
-    let mut kinds: Vec<(&str, f64)> = Vec::new();
+    let mut kinds: Vec<(EffectKind, f64)> = Vec::new();
     for (i, &(f, _)) in seeds.iter().enumerate() {
         let kind = families[f].kind;
         match kinds.iter_mut().find(|k| k.0 == kind) {
@@ -80,7 +80,7 @@ pub(crate) fn forward(
     let starts: Vec<(usize, usize)> = kinds
         .iter()
         .take(SECOND_KINDS)
-        .flat_map(|(kind, _)| kind_starts(families, &seeds, &seed_chi2, kind))
+        .flat_map(|&(kind, _)| kind_starts(families, &seeds, &seed_chi2, kind))
         .collect();
     // The second effect and X_p fitted, the first held.
     let held: Vec<(usize, Vec<f64>, f64, Evaluation)> = starts
@@ -169,7 +169,7 @@ pub(crate) fn forward(
             let mut parameters = estimates(&fam.params, &x[4 + k1..], &sd[4 + k1..], false);
             parameters.extend(estimates(&f1.params, &x[4..4 + k1], &sd[4..4 + k1], true));
             Candidate {
-                kind: fam.kind.to_string(),
+                kind: CandidateKind::Effect(fam.kind),
                 location: location_of(fam, &b),
                 flat: flat_mm(&actual2(judge, flat_apparent, &a, &b)),
                 effect: Some(b),

@@ -10,7 +10,10 @@ use super::{
     Diagnosis, Located, Naming, Options, Stage,
 };
 use crate::identify::{Identifier, Laps};
-use crate::model::{CheckedCalibration, Effect, WheelPosition};
+use crate::model::{CheckedCalibration, Effect, EffectKind, WheelPosition};
+
+/// A candidate that adds a second flat.
+const SECOND_FLAT: name::CandidateKind = name::CandidateKind::Effect(EffectKind::SecondFlat);
 use rayon::prelude::*;
 use std::path::Path;
 
@@ -322,15 +325,15 @@ fn named_second_flat_l0(naming: &Naming, wheel_radius_m: f64) -> Option<[f64; 2]
     match (&naming.second, naming.named) {
         (Some(s), _) if s.named => {
             let pair = s.ranking.first()?;
-            if pair.kind == "second_flat" {
+            if pair.kind == SECOND_FLAT {
                 library::second_flat_l0_mm(pair, false, wheel_radius_m, n)
-            } else if s.first.kind == "second_flat" {
+            } else if s.first.kind == SECOND_FLAT {
                 library::second_flat_l0_mm(pair, true, wheel_radius_m, n)
             } else {
                 None
             }
         }
-        (_, Some(i)) if naming.ranking[i].kind == "second_flat" => {
+        (_, Some(i)) if naming.ranking[i].kind == SECOND_FLAT => {
             library::second_flat_l0_mm(&naming.ranking[i], false, wheel_radius_m, n)
         }
         _ => None,

@@ -10,6 +10,7 @@ pub(crate) mod batch;
 pub mod calibration;
 pub(crate) mod contact;
 pub(crate) mod effect;
+mod effect_kind;
 pub(crate) mod flat;
 pub(crate) mod integrator;
 pub(crate) mod lanes;
@@ -24,6 +25,7 @@ pub(crate) mod wheel;
 pub use batch::{batch_key, BatchStats, LANES};
 pub use calibration::{Calibration, CalibrationError, CheckedCalibration};
 pub use effect::Effect;
+pub use effect_kind::EffectKind;
 pub use flat::{Flat, FlatError};
 pub use integrator::{
     SimError, Simulator, State, Workspace, SURFACE_PIT_DEPTH_M, SURFACE_STEP_TRAVEL_M,

@@ -5,7 +5,7 @@
 use super::canvas::{
     escape_html as esc, min_max, msg, render_png, PlotError, FONT, GRID_LIGHT, TAB_BLUE, TAB_RED,
 };
-use crate::diagnose::{Diagnosis, Located, SensorGap, Stage};
+use crate::diagnose::{CandidateKind, Diagnosis, Located, SensorGap, Stage};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::fmt::Write as _;
@@ -279,7 +279,7 @@ pub fn html(d: &Diagnosis, figure: &str) -> String {
             let _ = writeln!(
                 h,
                 "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.1}</td><td>{:.1}</td><td>{:.1}</td><td>{:.1}</td><td>{:.1} mm, {:.3} mm, {:.3} mm, {:.4} m</td><td>{}</td></tr>",
-                if c.kind == "none" { "none (the flat alone)" } else { &c.kind },
+                if c.kind == CandidateKind::None { "none (the flat alone)" } else { c.kind.as_str() },
                 esc(&c.location),
                 params,
                 c.chi2,
@@ -296,14 +296,14 @@ pub fn html(d: &Diagnosis, figure: &str) -> String {
                 h,
                 "<h2>A second effect (forward selection)</h2><p>{}</p><p>First: {} at {}. Pairs, best first (χ², z and BIC of the pair):</p><table><tr><th>second effect</th><th>where</th><th>parameters (± 1 sd)</th><th>χ²</th><th>z</th><th>BIC</th></tr>",
                 esc(&step.verdict),
-                esc(&step.first.kind),
+                esc(step.first.kind.as_str()),
                 esc(&step.first.location)
             );
             for c in &step.ranking {
                 let _ = writeln!(
                     h,
                     "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.1}</td><td>{:.1}</td><td>{:.1}</td></tr>",
-                    esc(&c.kind),
+                    esc(c.kind.as_str()),
                     esc(&c.location),
                     params_text(c),
                     c.chi2,
