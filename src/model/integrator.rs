@@ -131,7 +131,10 @@ pub struct Simulator {
 impl Simulator {
     /// Assembles and factors the model of a calibration.
     pub fn new(cal: &CheckedCalibration) -> Result<Simulator, SimError> {
-        let track = TrackModel::new(cal, cal.integration.elements_per_bay, Support::Elastic);
+        let bays = cal
+            .integration
+            .bay_elements(cal.track.bays, cal.track.sleeper_spacing_m);
+        let track = TrackModel::with_bays(cal, &bays, Support::Elastic);
         // The stepper's sweeps are written for the band of rail nodes with their sleepers.
         if track.k.half_bandwidth() != 4 {
             return Err(SimError::Setup(format!(

@@ -14,6 +14,7 @@ mod effect_kind;
 pub(crate) mod flat;
 pub(crate) mod integrator;
 pub(crate) mod lanes;
+mod rail_element;
 pub(crate) mod random;
 pub mod response;
 pub(crate) mod schedule;

@@ -9,179 +9,8 @@
 use super::banded::BandedSym;
 use super::calibration::CheckedCalibration;
 use super::effect;
-
-/// 4-point Gauss–Legendre rule on [0, 1]; exact for the degree-6 products below.
-const GAUSS4: [(f64, f64); 4] = [
-    (0.069_431_844_202_973_71, 0.173_927_422_568_726_93),
-    (0.330_009_478_207_571_87, 0.326_072_577_431_273_07),
-    (0.669_990_521_792_428_1, 0.326_072_577_431_273_07),
-    (0.930_568_155_797_026_3, 0.173_927_422_568_726_93),
-];
-
-/// Cross-section and material of the rail.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RailSection {
-    /// Bending stiffness EI (N·m²).
-    pub ei: f64,
-    /// Shear stiffness κGA (N).
-    pub kga: f64,
-    /// Mass per length ρA (kg/m).
-    pub rho_a: f64,
-    /// Rotary inertia per length ρI (kg·m).
-    pub rho_i: f64,
-}
-
-impl RailSection {
-    /// The section of a calibration's rail.
-    pub fn from_calibration(cal: &CheckedCalibration) -> RailSection {
-        let t = &cal.track;
-        RailSection {
-            ei: t.youngs_modulus_pa * t.rail_second_moment_m4,
-            kga: t.shear_coefficient * t.shear_modulus_pa * t.rail_area_m2,
-            rho_a: t.rail_density_kg_per_m3 * t.rail_area_m2,
-            rho_i: t.rail_density_kg_per_m3 * t.rail_second_moment_m4,
-        }
-    }
-}
-
-/// Shape functions of the Timoshenko element with interdependent interpolation
-/// (Friedman & Kosmatka 1993), `Φ = 12EI/(κGA·l²)`, `ξ = x/l`, nodal DOFs `(w1, ψ1, w2, ψ2)`:
-///
-/// `N_w = 1/(1+Φ)·[2ξ³−3ξ²−Φξ+1+Φ, l(ξ³−(2+Φ/2)ξ²+(1+Φ/2)ξ), −2ξ³+3ξ²+Φξ, l(ξ³−(1−Φ/2)ξ²−(Φ/2)ξ)]`
-///
-/// They reduce to the cubic Hermite functions when Φ → 0 (Euler–Bernoulli).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TimoshenkoElement {
-    /// Element length (m).
-    pub length_m: f64,
-    /// Shear parameter Φ.
-    pub phi: f64,
-    ei: f64,
-    kga: f64,
-}
-
-impl TimoshenkoElement {
-    /// An element of length `l` with section `s`.
-    pub fn new(length_m: f64, s: &RailSection) -> TimoshenkoElement {
-        TimoshenkoElement {
-            length_m,
-            phi: 12.0 * s.ei / (s.kga * length_m * length_m),
-            ei: s.ei,
-            kga: s.kga,
-        }
-    }
-
-    /// Closed-form stiffness of a Timoshenko beam segment of length `a` (exact for end loads):
-    /// `EI/((1+Φ_a)·a³)·[[12, 6a, −12, 6a], [6a, (4+Φ_a)a², −6a, (2−Φ_a)a²], …]`,
-    /// `Φ_a = 12EI/(κGA·a²)`.
-    pub fn segment_stiffness(&self, a: f64) -> [[f64; 4]; 4] {
-        let p = 12.0 * self.ei / (self.kga * a * a);
-        let s = self.ei / ((1.0 + p) * a * a * a);
-        let (a2, q, r) = (a * a, 4.0 + p, 2.0 - p);
-        [
-            [12.0 * s, 6.0 * a * s, -12.0 * s, 6.0 * a * s],
-            [6.0 * a * s, q * a2 * s, -6.0 * a * s, r * a2 * s],
-            [-12.0 * s, -6.0 * a * s, 12.0 * s, -6.0 * a * s],
-            [6.0 * a * s, r * a2 * s, -6.0 * a * s, q * a2 * s],
-        ]
-    }
-
-    /// Deflection at `ξ` under a unit point load at `ξ` with both element ends clamped: the
-    /// part of the exact static deflection under a load inside the element that the nodal
-    /// interpolation cannot represent (the element's "bubble"). Added in series with the Hertz
-    /// spring it makes the rail deflection under a wheel exact for static loads anywhere in an
-    /// element, which removes the spurious force ripple at the element-crossing frequency
-    /// `v / l_e` (docs/model.md §9). Computed by splitting the element at the load into two exact
-    /// segments and condensing the free node: `G = (S⁻¹)₀₀` with
-    /// `S = K_a[(w2,ψ2),(w2,ψ2)] + K_b[(w1,ψ1),(w1,ψ1)]`.
-    #[inline]
-    pub fn interior_compliance(&self, xi: f64) -> f64 {
-        let l = self.length_m;
-        let (a, b) = (xi * l, (1.0 - xi) * l);
-        if a <= 1e-9 * l || b <= 1e-9 * l {
-            return 0.0;
-        }
-        let ka = self.segment_stiffness(a);
-        let kb = self.segment_stiffness(b);
-        let s00 = ka[2][2] + kb[0][0];
-        let s01 = ka[2][3] + kb[0][1];
-        let s11 = ka[3][3] + kb[1][1];
-        s11 / (s00 * s11 - s01 * s01)
-    }
-
-    /// Deflection shape functions `N_w(ξ)`.
-    #[inline]
-    pub fn n_w(&self, xi: f64) -> [f64; 4] {
-        let (p, l) = (self.phi, self.length_m);
-        let (x2, x3) = (xi * xi, xi * xi * xi);
-        let f = 1.0 / (1.0 + p);
-        [
-            f * (2.0 * x3 - 3.0 * x2 - p * xi + 1.0 + p),
-            f * l * (x3 - (2.0 + p / 2.0) * x2 + (1.0 + p / 2.0) * xi),
-            f * (-2.0 * x3 + 3.0 * x2 + p * xi),
-            f * l * (x3 - (1.0 - p / 2.0) * x2 - (p / 2.0) * xi),
-        ]
-    }
-
-    /// `dN_w/dx`.
-    fn dn_w(&self, xi: f64) -> [f64; 4] {
-        let (p, l) = (self.phi, self.length_m);
-        let x2 = xi * xi;
-        let f = 1.0 / (1.0 + p);
-        [
-            f * (6.0 * x2 - 6.0 * xi - p) / l,
-            f * (3.0 * x2 - (4.0 + p) * xi + 1.0 + p / 2.0),
-            f * (-6.0 * x2 + 6.0 * xi + p) / l,
-            f * (3.0 * x2 - (2.0 - p) * xi - p / 2.0),
-        ]
-    }
-
-    /// Rotation shape functions `N_ψ(ξ)`.
-    fn n_psi(&self, xi: f64) -> [f64; 4] {
-        let (p, l) = (self.phi, self.length_m);
-        let x2 = xi * xi;
-        let f = 1.0 / (1.0 + p);
-        [
-            f * 6.0 * (x2 - xi) / l,
-            f * (3.0 * x2 - (4.0 + p) * xi + 1.0 + p),
-            -f * 6.0 * (x2 - xi) / l,
-            f * (3.0 * x2 - (2.0 - p) * xi),
-        ]
-    }
-
-    /// `dN_ψ/dx`.
-    fn dn_psi(&self, xi: f64) -> [f64; 4] {
-        let (p, l) = (self.phi, self.length_m);
-        let f = 1.0 / (1.0 + p);
-        [
-            f * 6.0 * (2.0 * xi - 1.0) / (l * l),
-            f * (6.0 * xi - (4.0 + p)) / l,
-            -f * 6.0 * (2.0 * xi - 1.0) / (l * l),
-            f * (6.0 * xi - (2.0 - p)) / l,
-        ]
-    }
-
-    /// Element stiffness `K = ∫ EI·N_ψ'ᵀN_ψ' + κGA·(N_w' − N_ψ)ᵀ(N_w' − N_ψ) dx` and
-    /// consistent mass `M = ∫ ρA·N_wᵀN_w + ρI·N_ψᵀN_ψ dx` (Timoshenko–Rayleigh),
-    /// integrated exactly by Gauss quadrature.
-    pub fn matrices(&self, s: &RailSection) -> ([[f64; 4]; 4], [[f64; 4]; 4]) {
-        let mut k = [[0.0; 4]; 4];
-        let mut m = [[0.0; 4]; 4];
-        let l = self.length_m;
-        for &(xi, wt) in &GAUSS4 {
-            let (nw, dnw, npsi, dnpsi) =
-                (self.n_w(xi), self.dn_w(xi), self.n_psi(xi), self.dn_psi(xi));
-            let gamma: [f64; 4] = std::array::from_fn(|a| dnw[a] - npsi[a]);
-            for a in 0..4 {
-                for b in 0..4 {
-                    k[a][b] += wt * l * (s.ei * dnpsi[a] * dnpsi[b] + s.kga * gamma[a] * gamma[b]);
-                    m[a][b] += wt * l * (s.rho_a * nw[a] * nw[b] + s.rho_i * npsi[a] * npsi[b]);
-                }
-            }
-        }
-        (k, m)
-    }
-}
+pub use super::rail_element::RailSection;
+pub(crate) use super::rail_element::TimoshenkoElement;
 
 /// How the rail is held at the sleepers (a test switch; the product always uses `Elastic`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -202,9 +31,20 @@ pub struct TrackModel {
     pub m: BandedSym,
     /// Damping matrix (pads and ballast).
     pub c: BandedSym,
-    element: TimoshenkoElement,
+    /// Sleeper spacing (m): every bay's length.
+    spacing_m: f64,
+    /// Per bay, its rail element (the bay's length over its element count).
+    bay_element: Vec<TimoshenkoElement>,
+    /// Per bay, its element stiffness matrix.
+    bay_k: Vec<[[f64; 4]; 4]>,
+    /// Per bay, its element count.
+    bay_elements: Vec<usize>,
+    /// The element length when every bay has the same count.
+    uniform_m: Option<f64>,
+    /// The node at each bay's start (and, last, the rail's end): sleeper k sits on node
+    /// `bay_node[k]`.
+    bay_node: Vec<usize>,
     elements: usize,
-    elements_per_bay: usize,
     /// DOF index of `w` at each node (`None` at constrained nodes); `ψ` follows it unless
     /// the node is constrained in rotation too (clamped ends).
     node_w: Vec<Option<usize>>,
@@ -218,17 +58,39 @@ pub struct TrackModel {
     /// Pad stiffness by rail DOF (non-zero at the rail DOFs over sleepers).
     pad_stiffness_at: Vec<f64>,
     pad_damping: f64,
-    element_k: [[f64; 4]; 4],
 }
 
 impl TrackModel {
     /// Assembles the track of a calibration with `elements_per_bay` rail elements per bay.
     pub fn new(cal: &CheckedCalibration, elements_per_bay: usize, support: Support) -> TrackModel {
+        TrackModel::with_bays(cal, &vec![elements_per_bay; cal.track.bays], support)
+    }
+
+    /// Assembles the track of a calibration with `bay_elements[b]` rail elements in bay `b`
+    /// (a mesh refined where it is needed: the nodes stay on the sleepers).
+    pub fn with_bays(
+        cal: &CheckedCalibration,
+        bay_elements: &[usize],
+        support: Support,
+    ) -> TrackModel {
         let t = &cal.track;
+        assert_eq!(bay_elements.len(), t.bays, "one element count a bay");
         let section = RailSection::from_calibration(cal);
-        let elements = t.bays * elements_per_bay;
-        let element =
-            TimoshenkoElement::new(t.sleeper_spacing_m / elements_per_bay as f64, &section);
+        let mut bay_node = vec![0usize];
+        for &n in bay_elements {
+            bay_node.push(bay_node.last().copied().unwrap_or(0) + n.max(1));
+        }
+        let elements = bay_node[t.bays];
+        let bay_element: Vec<TimoshenkoElement> = bay_elements
+            .iter()
+            .map(|&n| TimoshenkoElement::new(t.sleeper_spacing_m / n.max(1) as f64, &section))
+            .collect();
+        let matrices: Vec<_> = bay_element.iter().map(|e| e.matrices(&section)).collect();
+        // Which sleeper (bay boundary) a node is, if any.
+        let mut boundary = vec![None; elements + 1];
+        for (k, &node) in bay_node.iter().enumerate() {
+            boundary[node] = Some(k);
+        }
 
         // Number the DOFs in band order.
         let mut node_w = vec![None; elements + 1];
@@ -241,15 +103,15 @@ impl TrackModel {
             1..elements
         };
         for node in rotating_nodes {
-            let on_sleeper = node % elements_per_bay == 0;
+            let on_sleeper = boundary[node].is_some();
             if !(on_sleeper && support == Support::Rigid) {
                 node_w[node] = Some(n);
                 n += 1;
             }
             node_psi[node] = Some(n);
             n += 1;
-            if on_sleeper && support == Support::Elastic {
-                sleeper_dof[node / elements_per_bay - 1] = Some(n);
+            if let (Some(k), Support::Elastic) = (boundary[node], support) {
+                sleeper_dof[k - 1] = Some(n);
                 n += 1;
             }
         }
@@ -263,22 +125,23 @@ impl TrackModel {
             }
         }
         for (k, s) in sleeper_dof.iter().enumerate() {
-            if let (Some(s), Some(w)) = (s, node_w[(k + 1) * elements_per_bay]) {
+            if let (Some(s), Some(w)) = (s, node_w[bay_node[k + 1]]) {
                 hb = hb.max(s - w);
             }
         }
 
-        let (ke, me) = element.matrices(&section);
         let mut k = BandedSym::zeros(n, hb);
         let mut m = BandedSym::zeros(n, hb);
         let mut c = BandedSym::zeros(n, hb);
-        for e in 0..elements {
-            let dofs = [node_w[e], node_psi[e], node_w[e + 1], node_psi[e + 1]];
-            for a in 0..4 {
-                for b in 0..=a {
-                    if let (Some(i), Some(j)) = (dofs[a], dofs[b]) {
-                        k.add(i, j, ke[a][b]);
-                        m.add(i, j, me[a][b]);
+        for (bay, (ke, me)) in matrices.iter().enumerate() {
+            for e in bay_node[bay]..bay_node[bay + 1] {
+                let dofs = [node_w[e], node_psi[e], node_w[e + 1], node_psi[e + 1]];
+                for a in 0..4 {
+                    for b in 0..=a {
+                        if let (Some(i), Some(j)) = (dofs[a], dofs[b]) {
+                            k.add(i, j, ke[a][b]);
+                            m.add(i, j, me[a][b]);
+                        }
                     }
                 }
             }
@@ -286,7 +149,7 @@ impl TrackModel {
         let mut pad_stiffness_at = vec![0.0; n];
         let mut voided = Vec::new();
         for (idx, s) in sleeper_dof.iter().enumerate() {
-            let (Some(s), Some(w)) = (*s, node_w[(idx + 1) * elements_per_bay]) else {
+            let (Some(s), Some(w)) = (*s, node_w[bay_node[idx + 1]]) else {
                 continue;
             };
             // Effects that change one sleeper's pad or ballast stiffness, or void it.
@@ -316,16 +179,22 @@ impl TrackModel {
             k,
             m,
             c,
-            element,
+            spacing_m: t.sleeper_spacing_m,
+            bay_k: matrices.iter().map(|(ke, _)| *ke).collect(),
+            bay_element,
+            bay_elements: bay_elements.iter().map(|&n| n.max(1)).collect(),
+            uniform_m: bay_elements
+                .iter()
+                .all(|&n| n == bay_elements[0])
+                .then(|| t.sleeper_spacing_m / bay_elements[0].max(1) as f64),
+            bay_node,
             elements,
-            elements_per_bay,
             node_w,
             node_psi,
             sleeper_dof,
             voided,
             pad_stiffness_at,
             pad_damping: t.pad_damping_ns_per_m,
-            element_k: ke,
         }
     }
 
@@ -334,9 +203,9 @@ impl TrackModel {
         self.k.n()
     }
 
-    /// The rail element used.
+    /// The rail element of the first bay (every bay's, on a uniform mesh).
     pub fn element(&self) -> &TimoshenkoElement {
-        &self.element
+        &self.bay_element[0]
     }
 
     /// Number of rail elements.
@@ -346,23 +215,38 @@ impl TrackModel {
 
     /// Rail length (m).
     pub fn length_m(&self) -> f64 {
-        self.elements as f64 * self.element.length_m
+        self.bay_elements.len() as f64 * self.spacing_m
     }
 
-    /// The element under position `x` and the local coordinate ξ ∈ [0, 1] in it.
+    /// The element under position `x`, its bay, and the local coordinate ξ ∈ [0, 1] in it.
     #[inline]
-    fn element_at(&self, x: f64) -> (usize, f64) {
-        let l = self.element.length_m;
-        let e = ((x / l).floor().max(0.0) as usize).min(self.elements - 1);
-        (e, ((x - e as f64 * l) / l).clamp(0.0, 1.0))
+    fn element_at(&self, x: f64) -> (usize, usize, f64) {
+        if let Some(l) = self.uniform_m {
+            // One element length everywhere: the element from x directly (as before meshes
+            // could be refined: the same floating-point steps, the same banks).
+            let e = ((x / l).floor().max(0.0) as usize).min(self.elements - 1);
+            let b = (e / self.bay_elements[0]).min(self.bay_elements.len() - 1);
+            return (e, b, ((x - e as f64 * l) / l).clamp(0.0, 1.0));
+        }
+        let bays = self.bay_elements.len();
+        let b = ((x / self.spacing_m).floor().max(0.0) as usize).min(bays - 1);
+        let n = self.bay_elements[b];
+        let l = self.spacing_m / n as f64;
+        let local = x - b as f64 * self.spacing_m;
+        let j = ((local / l).floor().max(0.0) as usize).min(n - 1);
+        (
+            self.bay_node[b] + j,
+            b,
+            ((local - j as f64 * l) / l).clamp(0.0, 1.0),
+        )
     }
 
     /// The element under position `x` and the deflection shape functions there, with the
     /// element's DOF indices (`usize::MAX` marks a constrained DOF, whose weight is zeroed).
     #[inline]
     pub fn locate(&self, x: f64) -> ([usize; 4], [f64; 4]) {
-        let (e, xi) = self.element_at(x);
-        let mut n = self.element.n_w(xi);
+        let (e, b, xi) = self.element_at(x);
+        let mut n = self.bay_element[b].n_w(xi);
         let dofs = [
             self.node_w[e],
             self.node_psi[e],
@@ -382,7 +266,8 @@ impl TrackModel {
     /// Compliance of the element interior at `x` (see [`TimoshenkoElement::interior_compliance`]).
     #[inline]
     pub fn interior_compliance_at(&self, x: f64) -> f64 {
-        self.element.interior_compliance(self.element_at(x).1)
+        let (_, b, xi) = self.element_at(x);
+        self.bay_element[b].interior_compliance(xi)
     }
 
     /// Rail deflection at `x` interpolated with the element shape functions.
@@ -397,7 +282,7 @@ impl TrackModel {
 
     /// `(rail w DOF, sleeper DOF)` of sleeper `k` (1-based), elastic supports only.
     pub fn pad_dofs(&self, sleeper: usize) -> Option<(usize, usize)> {
-        let w = self.node_w[sleeper * self.elements_per_bay]?;
+        let w = self.node_w[*self.bay_node.get(sleeper)?]?;
         let s = self
             .sleeper_dof
             .get(sleeper.checked_sub(1)?)
@@ -436,6 +321,7 @@ impl TrackModel {
     /// positive when the end holds the rail up) for a static displacement field `u`.
     /// The support must apply `−(K_e·u_e)` on the clamped node's deflection row.
     pub fn end_reactions(&self, u: &[f64]) -> [f64; 2] {
+        let last = self.bay_k.len() - 1;
         let section_k = |e: usize, row: usize| -> f64 {
             let dofs = [
                 self.node_w[e],
@@ -443,7 +329,7 @@ impl TrackModel {
                 self.node_w[e + 1],
                 self.node_psi[e + 1],
             ];
-            let ke = &self.element_k;
+            let ke = &self.bay_k[if e == 0 { 0 } else { last }];
             -(0..4)
                 .filter_map(|b| dofs[b].map(|d| ke[row][b] * u[d]))
                 .sum::<f64>()
@@ -475,6 +361,53 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_refined_stretch_leaves_the_static_deflection_at_the_sleepers_as_it_was() {
+        // The element's interdependent interpolation is exact for nodal loads, so the static
+        // deflection at every node is the beam's whatever the mesh: refining bays 12–21 to 40
+        // elements, against 4 everywhere, must leave every sleeper's deflection under 100 kN
+        // on sleeper 17 unchanged but for round-off (1e-9 relative), and the mass the same.
+        let cal = Calibration::default().check().unwrap();
+        let bays = cal.track.bays;
+        let mut mixed = vec![4; bays];
+        mixed[12..22].iter_mut().for_each(|n| *n = 40);
+        let deflections = |t: &TrackModel| -> Vec<f64> {
+            let mut u = vec![0.0; t.dofs()];
+            u[t.pad_dofs(17).unwrap().0] = 1e5;
+            t.k.factor().unwrap().solve_in_place(&mut u);
+            (1..bays).map(|k| u[t.pad_dofs(k).unwrap().0]).collect()
+        };
+        let uniform = TrackModel::new(&cal, 4, Support::Elastic);
+        let refined = TrackModel::with_bays(&cal, &mixed, Support::Elastic);
+        assert_eq!(refined.elements(), 4 * bays + 36 * 10);
+        let (a, b) = (deflections(&uniform), deflections(&refined));
+        let peak = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        for (k, (x, y)) in a.iter().zip(&b).enumerate() {
+            assert!(
+                (x - y).abs() <= 1e-9 * peak,
+                "sleeper {}: {x} vs {y}",
+                k + 1
+            );
+        }
+        // Rigid translation of the rail (w = 1 at every free rail node): the same mass.
+        let mass = |t: &TrackModel| {
+            let mut one = vec![0.0; t.dofs()];
+            t.node_w.iter().flatten().for_each(|&d| one[d] = 1.0);
+            let mut y = vec![0.0; t.dofs()];
+            t.m.mul_vec(&one, &mut y);
+            one.iter().zip(&y).map(|(a, b)| a * b).sum::<f64>()
+        };
+        let (ma, mb) = (mass(&uniform), mass(&refined));
+        assert!((ma - mb).abs() < 1e-9 * ma, "{ma} vs {mb}");
+        // Contact lookup: a point in a refined bay lies in the bay's element of its position.
+        let x = 17.3 * cal.track.sleeper_spacing_m;
+        let (e, b, xi) = refined.element_at(x);
+        assert_eq!(b, 17);
+        let l = cal.track.sleeper_spacing_m / 40.0;
+        let x_e = 17.0 * cal.track.sleeper_spacing_m + (e - refined.bay_node[17]) as f64 * l;
+        assert!((x_e + xi * l - x).abs() < 1e-12, "{e} {xi}");
     }
 
     #[test]

@@ -196,9 +196,10 @@ impl Calibration {
             1.0,
             1000.0,
         )?;
+        n.check_refine()?;
         // One run's size: rail elements, and time steps if every step were a fine one (the
         // run lasts at most the time to cross the rail).
-        let elements = t.bays * n.elements_per_bay;
+        let elements: usize = n.bay_elements(t.bays, t.sleeper_spacing_m).iter().sum();
         if elements > MAX_ELEMENTS {
             return Err(invalid(
                 "integration.elements_per_bay",
@@ -501,7 +502,7 @@ const MAX_ELEMENTS: usize = 20_000;
 const MAX_STEPS: f64 = 2e8;
 
 /// A value inside `[lo, hi]`, the range named in the error.
-fn within(key: &str, v: f64, lo: f64, hi: f64) -> Result<(), CalibrationError> {
+pub(super) fn within(key: &str, v: f64, lo: f64, hi: f64) -> Result<(), CalibrationError> {
     finite(key, v)?;
     if (lo..=hi).contains(&v) {
         Ok(())

@@ -122,6 +122,7 @@ impl Default for Calibration {
                 fine_steps_per_coarse: 10,
                 fine_before_strike_s: 0.001,
                 fine_after_strike_s: 0.010,
+                refine: Vec::new(),
             },
             // The site population: either wheel, X_p over one revolution from 12 m, folded
             // into one sleeper bay (docs/bank.md "Folded banks").

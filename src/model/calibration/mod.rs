@@ -12,11 +12,13 @@ mod defaults;
 mod fold;
 
 mod maintenance;
+mod mesh;
 mod roughness;
 
 pub use super::effect::Effect;
 pub use super::wheel::WheelPosition;
 pub use maintenance::MaintenanceParams;
+pub use mesh::RefinedSpan;
 pub use roughness::{RailRoughness, WheelRoughness};
 
 use serde::{Deserialize, Serialize};
@@ -166,6 +168,11 @@ pub struct IntegrationParams {
     /// Fine stepping continues this long after the flat has passed (s), covering the
     /// landing impact after a loss of contact and the P1 ringing.
     pub fine_after_strike_s: f64,
+    /// Stretches of rail meshed finer than `elements_per_bay` (every bay they overlap gets
+    /// their element count): where landings need a finer rail (docs/identification.md,
+    /// "Where the landing's error comes from"). None by default.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub refine: Vec<RefinedSpan>,
 }
 
 /// [`IdentificationParams::discretisation_fraction`]'s default (a calibration written before

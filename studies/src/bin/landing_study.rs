@@ -4,7 +4,8 @@
 //!
 //! CASES flats drawn uniformly over the default (site) population are simulated without
 //! noise at the converged reference and at each mesh/step variant `E:C:F` (elements a bay,
-//! coarse steps a sample, fine steps a coarse one; the bank's own first). Per variant and per
+//! coarse steps a sample, fine steps a coarse one; the bank's own first) or `E:C:F:R:M` (and
+//! R elements a bay from M bays before the first sensor's sleeper to M bays after the last). Per variant and per
 //! case, the largest |variant − reference| over the reference's peak pad force, at the samples
 //! near a strike and its landing (1 ms before the strike to 5 ms after the flat has passed:
 //! `near`) and over every sample of every sensor window (`all`), for the cases whose reference
@@ -13,6 +14,7 @@
 use rayon::prelude::*;
 use std::time::Instant;
 use wheelflat::bank::schema::sensor_axes;
+use wheelflat::model::calibration::RefinedSpan;
 use wheelflat::model::{Calibration, Flat, Record, Simulator};
 use wheelflat_studies::study::uniform;
 
@@ -91,11 +93,26 @@ fn main() {
         reference.iter().filter(|r| r.1).count()
     );
     for v in &variants {
-        let parts: Vec<usize> = v.split(':').map(|x| x.parse().expect("E:C:F")).collect();
+        let parts: Vec<usize> = v
+            .split(':')
+            .map(|x| x.parse().expect("E:C:F[:R:M]"))
+            .collect();
         let mut d = base.clone();
         d.integration.elements_per_bay = parts[0];
         d.integration.coarse_steps_per_sample = parts[1];
         d.integration.fine_steps_per_coarse = parts[2];
+        // E:C:F:R:M — R elements a bay from M bays before the first sensor's sleeper to M
+        // bays after the last.
+        if let [_, _, _, r, m] = parts[..] {
+            let s = cal.track.sleeper_spacing_m;
+            let sleepers = cal.sensors.pad.iter().map(|p| p.sleeper);
+            let (lo, hi) = (sleepers.clone().min().unwrap(), sleepers.max().unwrap());
+            d.integration.refine = vec![RefinedSpan {
+                from_m: lo.saturating_sub(m) as f64 * s,
+                to_m: (hi + m) as f64 * s,
+                elements_per_bay: r,
+            }];
+        }
         let sim = Simulator::new(&d.check().expect("variant")).expect("variant model");
         let clock = Instant::now();
         // Per case: the largest error near a strike and anywhere, over the peak; lost.
