@@ -10,6 +10,11 @@ pub(crate) fn splitmix64(state: &mut u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// An index below `n` from [`splitmix64`] (a bootstrap's resample of `n` items).
+pub(crate) fn index(state: &mut u64, n: usize) -> usize {
+    (splitmix64(state) % n as u64) as usize
+}
+
 /// Uniform [0, 1) with 53 random bits from [`splitmix64`].
 pub(crate) fn uniform(state: &mut u64) -> f64 {
     (splitmix64(state) >> 11) as f64 / (1u64 << 53) as f64

@@ -260,8 +260,7 @@ impl TrackFit {
                 let mut a = DMatrix::zeros(n, n);
                 let mut g = DVector::zeros(n);
                 for _ in 0..per_pass.len() {
-                    let i = (crate::model::random::splitmix64(&mut state) % per_pass.len() as u64)
-                        as usize;
+                    let i = crate::model::random::index(&mut state, per_pass.len());
                     a += &per_pass[i].0;
                     g += &per_pass[i].1;
                 }

@@ -396,7 +396,7 @@ fn relative_gains(
     let draws: Vec<Vec<f64>> = (0..400)
         .map(|_| {
             let idx: Vec<usize> = (0..n)
-                .map(|_| (crate::model::random::splitmix64(&mut state) % n as u64) as usize)
+                .map(|_| crate::model::random::index(&mut state, n))
                 .collect();
             estimate(&idx)
         })

@@ -71,12 +71,7 @@ pub(super) fn absolute_gains(
     let value = level(&mut (0..n));
     let mut state = seed ^ 0xAB5_01D;
     let mut boot: Vec<f64> = (0..draws)
-        .map(|_| {
-            level(
-                &mut (0..n)
-                    .map(|_| (crate::model::random::splitmix64(&mut state) % n as u64) as usize),
-            )
-        })
+        .map(|_| level(&mut (0..n).map(|_| crate::model::random::index(&mut state, n))))
         .collect();
     let [low, high] = table::quantiles(&mut boot);
     let common = Interval::pinned(

@@ -159,6 +159,26 @@ pub fn uniform(state: &mut u64) -> f64 {
     (*state >> 11) as f64 / (1u64 << 53) as f64
 }
 
+/// `cases` flats drawn uniformly over `pop`'s L, d, c (capped below d/2) and X_p with
+/// [`uniform`] from `seed` (at least 1): the discretisation and landing studies' draws.
+pub fn uniform_flats(
+    pop: &wheelflat::model::calibration::PopulationParams,
+    cases: usize,
+    seed: u64,
+) -> Vec<Flat> {
+    let mut state = seed.max(1);
+    (0..cases)
+        .map(|_| {
+            let mut u = |r: [f64; 2]| r[0] + uniform(&mut state) * (r[1] - r[0]);
+            let l = u(pop.length_mm);
+            let d = u(pop.depth_mm);
+            let c = u(pop.curvature_mm).min(0.49 * d);
+            let x = u(pop.impact_position_m);
+            Flat::from_mm(l, d, c, x).expect("a flat of the population")
+        })
+        .collect()
+}
+
 /// splitmix64 → uniform in [0, 1) (the oracle and history studies' draws).
 pub fn splitmix_uniform(state: &mut u64) -> f64 {
     *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);

@@ -14,7 +14,6 @@ use wheelflat_studies::study;
 
 use rayon::prelude::*;
 use std::io::Write;
-use study::uniform;
 use wheelflat::bank::Bank;
 use wheelflat::model::{Flat, Record, Simulator};
 
@@ -34,17 +33,7 @@ fn main() {
     let pop = cal.population.clone();
     let sim_b = Simulator::new(&cal).expect("bank model");
     let sim_c = Simulator::new(&conv).expect("converged model");
-    let mut state = seed.max(1);
-    let flats: Vec<Flat> = (0..cases)
-        .map(|_| {
-            let mut u = |r: [f64; 2]| r[0] + uniform(&mut state) * (r[1] - r[0]);
-            let l = u(pop.length_mm);
-            let d = u(pop.depth_mm);
-            let c = u(pop.curvature_mm).min(0.49 * d);
-            let x = u(pop.impact_position_m);
-            Flat::from_mm(l, d, c, x).expect("a flat of the population")
-        })
-        .collect();
+    let flats: Vec<Flat> = study::uniform_flats(&pop, cases, seed);
     let rows: Vec<(String, f64, bool)> = flats
         .par_iter()
         .enumerate()

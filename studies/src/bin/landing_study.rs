@@ -16,7 +16,7 @@ use std::time::Instant;
 use wheelflat::bank::schema::sensor_axes;
 use wheelflat::model::calibration::RefinedSpan;
 use wheelflat::model::{Calibration, Flat, Record, Simulator};
-use wheelflat_studies::study::uniform;
+use wheelflat_studies::study;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -36,17 +36,7 @@ fn main() {
     )];
     variants.extend(args[3..].iter().cloned());
     let pop = cal.population.clone();
-    let mut state = seed.max(1);
-    let flats: Vec<Flat> = (0..cases)
-        .map(|_| {
-            let mut u = |r: [f64; 2]| r[0] + uniform(&mut state) * (r[1] - r[0]);
-            let l = u(pop.length_mm);
-            let d = u(pop.depth_mm);
-            let c = u(pop.curvature_mm).min(0.49 * d);
-            let x = u(pop.impact_position_m);
-            Flat::from_mm(l, d, c, x).expect("a flat of the population")
-        })
-        .collect();
+    let flats: Vec<Flat> = study::uniform_flats(&pop, cases, seed);
     let window = |r: &wheelflat::model::Response| -> Vec<Vec<f64>> {
         axes.iter()
             .enumerate()
