@@ -42,7 +42,7 @@ fn bench_train(c: &mut Criterion) {
     let mut group = c.benchmark_group("train");
     group.sample_size(10);
     group.bench_function(format!("identify_12_bogies_{n}_instances"), |b| {
-        b.iter(|| train::identify_train(&ids, black_box(&m), &bogies).unwrap())
+        b.iter(|| train::identify_bogies(&ids, black_box(&m), &bogies).unwrap())
     });
     group.finish();
 }

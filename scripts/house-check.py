@@ -24,7 +24,7 @@ LAYERS = [
     ["audit", "train", "history", "site"],
     ["identify"],
     ["bank"],
-    ["model", "atomic"],
+    ["model", "atomic", "stopwatch"],
 ]
 BINARY_ONLY = ("clap", "indicatif", "signal_hook", "anyhow")
 

@@ -408,8 +408,9 @@ pub fn check_against(
     let allowance = |axis: usize, a: usize, b: usize| {
         let f = &stored.forces_kn[axis];
         share
-            * crate::identify::falsify::largest_step(f[a..=b.min(f.len() - 1)].iter().copied())
-                as f64
+            * crate::identify::domain::falsify::largest_step(
+                f[a..=b.min(f.len() - 1)].iter().copied(),
+            ) as f64
     };
     let n = bank.instances();
     let read = |points: &[(usize, usize)]| -> Result<Vec<Vec<f32>>, AuditError> {
@@ -452,7 +453,7 @@ pub fn check_against(
         let window = x.sample - x.half_width..=x.sample + x.half_width;
         let data = read(&window.clone().map(|k| (axis, k)).collect::<Vec<_>>())?;
         let refs: Vec<&[f32]> = data.iter().map(Vec::as_slice).collect();
-        let max = x.kind == crate::identify::envelope::Extreme::Max;
+        let max = x.kind == crate::identify::select::envelope::Extreme::Max;
         let all = envelope::feature(&refs, max);
         let own = envelope::extreme(window.map(|k| own[axis][k]), max);
         let ser = &id.series[x.series];

@@ -24,4 +24,5 @@ pub mod model;
 pub mod pass;
 pub mod report;
 pub mod site;
+mod stopwatch;
 pub mod train;

@@ -1,9 +1,10 @@
-//! What a speed band ([`super::family::SpeedBand`]) and a load band
+//! What a speed band ([`super::speeds::SpeedBand`]) and a load band
 //! ([`super::loads::LoadBand`]) share: `FROM:TO:STEP` read from text, and the members it
 //! makes.
 
 /// `FROM:TO:STEP` read as three finite numbers; `unit` follows "not a number" in the message
 /// (e.g. " of km/h"), `what` names the form (e.g. "in km/h (e.g. `40:60:2`)").
+// Err(String): a clap value parser's message (the argument is named by clap).
 pub(crate) fn parse_from_to_step(text: &str, what: &str, unit: &str) -> Result<[f64; 3], String> {
     let parts: Vec<&str> = text.split(':').collect();
     if parts.len() != 3 {

@@ -140,6 +140,7 @@ pub(crate) fn encode(bank_id: &str, d: &Departures) -> Vec<u8> {
 
 /// Decodes and checks a file's bytes against the bank it must belong to; the reason when it
 /// does not.
+// Err(String): the message of the caller's `BankError::Corrupt` (the file).
 pub(crate) fn decode(
     bytes: &[u8],
     bank_id: &str,
@@ -196,6 +197,7 @@ pub(crate) fn decode(
 
 /// Checks a stored table against the bank it lies in (`bank verify`): magic, CRC-32, bank id,
 /// instances, and a size that fits the sensor count it states.
+// Err(String): the message of the caller's `BankError::Corrupt` (the file).
 pub(crate) fn check(bytes: &[u8], bank_id: &str, instances: usize) -> Result<(), String> {
     let sensors = bytes.get(16..20).map_or(0, |b| {
         u32::from_le_bytes(b.try_into().expect("4 bytes")) as usize

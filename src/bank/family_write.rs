@@ -105,22 +105,24 @@ pub fn generate_family(
     observer: &dyn GenerateObserver,
     member_started: &dyn Fn(usize, usize, &str),
 ) -> Result<FamilyOutcome, BankError> {
-    band.check().map_err(BankError::Invalid)?;
+    band.check().map_err(BankError::SpeedBand)?;
     if let Some(b) = &loads {
         b.check(&cal.vehicle)
-            .map_err(|e| BankError::Invalid(format!("loads {b}: {e}")))?;
+            .map_err(|reason| BankError::LoadBand {
+                band: b.to_string(),
+                reason,
+            })?;
         if (b.car_body_mass_kg - cal.vehicle.car_body_mass_kg).abs() > 1e-6 {
-            return Err(BankError::Invalid(format!(
-                "the family's loads are factors of a {} kg car body; the calibration's is {} kg: regenerate with --loads",
-                b.car_body_mass_kg, cal.vehicle.car_body_mass_kg
-            )));
+            return Err(BankError::LoadsOfAnotherCarBody {
+                family_kg: b.car_body_mass_kg,
+                calibration_kg: cal.vehicle.car_body_mass_kg,
+            });
         }
     }
     if read_current(dir)?.is_some() {
-        return Err(BankError::Invalid(format!(
-            "{} holds a single bank (CURRENT); a family needs a directory of its own",
-            dir.display()
-        )));
+        return Err(BankError::SingleBankThere {
+            dir: dir.to_path_buf(),
+        });
     }
     let grid = member_grid(&band, loads.as_ref());
     let mut members = Vec::with_capacity(grid.len());

@@ -100,9 +100,8 @@ impl Fold {
     ) -> Result<Vec<usize>, BankError> {
         let mut out = Vec::with_capacity(indices.len() * self.factor());
         for &col in indices {
-            let (axis, k) = axis_sample(shown, col).ok_or_else(|| {
-                BankError::Invalid(format!("column {col} is not a force-sample column"))
-            })?;
+            let (axis, k) =
+                axis_sample(shown, col).ok_or(BankError::NotForceColumn { column: col })?;
             out.extend(
                 self.axes[axis]
                     .iter()

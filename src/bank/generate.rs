@@ -252,15 +252,12 @@ pub fn generate(
     observer: &dyn GenerateObserver,
 ) -> Result<Outcome, BankError> {
     if opts.instances == 0 || opts.shard_size == 0 {
-        return Err(BankError::Invalid(
-            "instances and shard size must be positive".into(),
-        ));
+        return Err(BankError::Empty);
     }
     if opts.instances > u32::MAX as usize {
-        return Err(BankError::Invalid(format!(
-            "{} instances exceed the u32 instance column",
-            opts.instances
-        )));
+        return Err(BankError::TooManyInstances {
+            instances: opts.instances,
+        });
     }
     cal.check_fold()?;
     // One writer at a time (the tasks of a job array share the lock): taken before anything
@@ -301,9 +298,7 @@ pub fn generate(
         None => (0..count).collect(),
         Some((i, n)) => {
             if n == 0 || i >= n {
-                return Err(BankError::Invalid(format!(
-                    "shard {i}/{n}: need 0 <= I < N"
-                )));
+                return Err(BankError::Shard { index: i, count: n });
             }
             (i * count / n..(i + 1) * count / n).collect()
         }

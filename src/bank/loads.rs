@@ -2,7 +2,7 @@
 //! a pass is compared with a bank of its own load (docs/bank.md "Bank families:
 //! every load"). The band is given as factors of the calibration's car-body mass
 //! (`--loads 0.6:1.1:0.5`: 0.6 and 1.1 × `vehicle.car_body_mass_kg`); a pass's load is
-//! read from its record ([`crate::identify::load`]) and picks the member nearest it in static
+//! read from its record ([`crate::identify::detect::load`]) and picks the member nearest it in static
 //! wheel load.
 
 use crate::model::calibration::VehicleParams;
@@ -35,6 +35,7 @@ pub struct LoadBand {
 impl LoadBand {
     /// Parses `FROM:TO:STEP` (factors of the calibration's car-body mass, e.g. `0.6:1.1:0.5`),
     /// checked against `vehicle` ([`LoadBand::check`]).
+    // Err(String): a clap value parser's message, or `BankError::LoadBand`'s reason.
     pub fn parse(text: &str, vehicle: &VehicleParams) -> Result<LoadBand, String> {
         let v = super::band::parse_from_to_step(
             text,
@@ -58,6 +59,7 @@ impl LoadBand {
     /// Factors in (0, 5], multiples of 0.01, FROM ≤ TO, STEP > 0 reaching TO, at most
     /// [`MAX_LOADS`] members, and every load between two members within the tolerances of one
     /// of them ([`admissible`]; in static wheel load, with `vehicle`'s other masses).
+    // Err(String): a clap value parser's message, or `BankError::LoadBand`'s reason.
     pub fn check(&self, vehicle: &VehicleParams) -> Result<(), String> {
         let (a, b, s) = (self.from, self.to, self.step);
         let hundredth = |x: f64| ((x * 100.0).round() - x * 100.0).abs() < 1e-6;

@@ -35,6 +35,7 @@ pub mod roughness;
 mod rows;
 pub mod schema;
 pub(crate) mod simulate;
+mod speeds;
 pub(crate) mod verify;
 pub(crate) mod version;
 pub(crate) mod writer;
@@ -117,9 +118,83 @@ pub enum BankError {
         /// Who holds it, in words.
         holder: String,
     },
-    /// Invalid arguments.
+    /// A speed band that does not check (the band's own words: which of FROM, TO, STEP and
+    /// why).
     #[error("{0}")]
-    Invalid(String),
+    SpeedBand(String),
+    /// A load band that does not check for the calibration's vehicle.
+    #[error("loads {band}: {reason}")]
+    LoadBand {
+        /// The band as given.
+        band: String,
+        /// Why, in the band check's words.
+        reason: String,
+    },
+    /// A family over loads regenerated with a calibration of another car-body mass.
+    #[error("the family's loads are factors of a {family_kg} kg car body; the calibration's is {calibration_kg} kg: regenerate with --loads")]
+    LoadsOfAnotherCarBody {
+        /// The car body the family's load factors are of (kg).
+        family_kg: f64,
+        /// The calibration's (kg).
+        calibration_kg: f64,
+    },
+    /// A column asked for that holds no force samples (the parameters, or beyond the bank).
+    #[error("column {column} is not a force-sample column")]
+    NotForceColumn {
+        /// The column.
+        column: usize,
+    },
+    /// A shard read through the layout asked for its footer (a defect of the caller).
+    #[error("{}: read through the layout, its footer was not parsed", path.display())]
+    FooterNotParsed {
+        /// The shard file.
+        path: PathBuf,
+    },
+    /// A buffer for columns of another size than the columns asked for (a defect of the
+    /// caller).
+    #[error("a buffer of {values} values for {columns} columns of {instances} instances")]
+    BufferSize {
+        /// Values the buffer holds.
+        values: usize,
+        /// Columns asked for.
+        columns: usize,
+        /// Stored instances.
+        instances: usize,
+    },
+    /// An instance the bank does not hold.
+    #[error("instance {instance} is not in the bank (it holds instances 0 to {last})")]
+    NoSuchInstance {
+        /// The instance asked for.
+        instance: usize,
+        /// The last it holds.
+        last: usize,
+    },
+    /// A family asked for in a directory that holds a single bank.
+    #[error("{} holds a single bank (CURRENT); a family needs a directory of its own", dir.display())]
+    SingleBankThere {
+        /// The directory.
+        dir: PathBuf,
+    },
+    /// `bank prune --keep 0`.
+    #[error("--keep must be at least 1: the version CURRENT names is always kept")]
+    KeepNone,
+    /// No instances, or shard files of none.
+    #[error("instances and shard size must be positive")]
+    Empty,
+    /// More instances than the instance column holds.
+    #[error("{instances} instances exceed the u32 instance column")]
+    TooManyInstances {
+        /// Instances asked for.
+        instances: usize,
+    },
+    /// `--shard I/N` outside `0 <= I < N`.
+    #[error("shard {index}/{count}: need 0 <= I < N")]
+    Shard {
+        /// I.
+        index: usize,
+        /// N.
+        count: usize,
+    },
     /// The calibration cannot be stored as asked (a folded population it cannot fold).
     #[error(transparent)]
     Calibration(#[from] crate::model::CalibrationError),

@@ -169,6 +169,7 @@ pub(crate) fn encode(bank_id: &str, b: &OutOfRoundBasis) -> Vec<u8> {
 
 /// Decodes and checks a file's bytes against the bank it must belong to (its id and, when
 /// given, its axes' lengths); the reason when it does not.
+// Err(String): the message of the caller's `BankError::Corrupt` (the file).
 pub(crate) fn decode(
     bytes: &[u8],
     bank_id: &str,
@@ -182,6 +183,7 @@ pub(crate) fn decode(
         return Err("CRC-32 mismatch".into());
     }
     let mut at = MAGIC.len();
+    // Err(String): the message of the caller's `BankError::Corrupt` (the file).
     let mut take = |n: usize| -> Result<&[u8], String> {
         let s = body.get(at..at + n).ok_or("truncated")?;
         at += n;
@@ -216,6 +218,7 @@ pub(crate) fn decode(
             w => return Err(format!("wheel {w}")),
         };
         let order = u32_of(take(4)?) as u32;
+        // Err(String): the message of the caller's `BankError::Corrupt` (the file).
         let mut shape = || -> Result<Vec<Vec<f64>>, String> {
             lens.iter()
                 .map(|&l| {

@@ -45,9 +45,7 @@ pub fn prune(dir: &Path, keep: usize) -> Result<Pruned, BankError> {
 /// member's `CURRENT` while the family is regenerated); they are listed as kept.
 pub fn prune_keeping(dir: &Path, keep: usize, pinned: &[PathBuf]) -> Result<Pruned, BankError> {
     if keep == 0 {
-        return Err(BankError::Invalid(
-            "--keep must be at least 1: the version CURRENT names is always kept".into(),
-        ));
+        return Err(BankError::KeepNone);
     }
     let _lock = lock(dir, Access::Exclusive)?;
     let current = super::version::read_current(dir)?

@@ -288,12 +288,11 @@ impl Bank {
         &self,
         file: &'a ShardFile,
     ) -> Result<&'a ArrowReaderMetadata, BankError> {
-        file.meta.as_ref().ok_or_else(|| {
-            BankError::Invalid(format!(
-                "{}: read through the layout, its footer was not parsed",
-                file.path.display()
-            ))
-        })
+        file.meta
+            .as_ref()
+            .ok_or_else(|| BankError::FooterNotParsed {
+                path: file.path.clone(),
+            })
     }
 
     /// Decodes the columns `indices` of every shard through the footers, handing each to
@@ -351,11 +350,11 @@ impl Bank {
     fn read_stored_columns(&self, indices: &[usize], out: &mut [f32]) -> Result<(), BankError> {
         let n = self.stored_instances();
         if out.len() != indices.len() * n {
-            return Err(BankError::Invalid(format!(
-                "a buffer of {} values for {} columns of {n} instances",
-                out.len(),
-                indices.len()
-            )));
+            return Err(BankError::BufferSize {
+                values: out.len(),
+                columns: indices.len(),
+                instances: n,
+            });
         }
         let mut sorted: Vec<usize> = indices.to_vec();
         sorted.sort_unstable();
@@ -389,9 +388,7 @@ impl Bank {
             // Slices of the mapped files: a copy per column and shard.
             let check = |col: usize| {
                 if col >= layout.widths.len() || layout.widths[col] != 4 || col == 0 {
-                    return Err(BankError::Invalid(format!(
-                        "column {col} is not a force-sample column"
-                    )));
+                    return Err(BankError::NotForceColumn { column: col });
                 }
                 Ok(())
             };
@@ -444,11 +441,8 @@ impl Bank {
                             .column(pos)
                             .as_any()
                             .downcast_ref::<Float32Array>()
-                            .ok_or_else(|| {
-                                BankError::Invalid(format!(
-                                    "column {} is not a force-sample column",
-                                    sorted[pos]
-                                ))
+                            .ok_or(BankError::NotForceColumn {
+                                column: sorted[pos],
                             })?;
                         let len = values.len();
                         if offset + len > slot.len() {

@@ -294,6 +294,7 @@ pub(crate) fn encode(table: &RoughnessTable) -> String {
 
 /// Checks a stored table's text against the bank it must belong to; the reason when it does
 /// not.
+// Err(String): the message of the caller's `BankError::Corrupt` (the file).
 pub(crate) fn decode(text: &str, bank_id: &str) -> Result<RoughnessTable, String> {
     let body_end = text
         .trim_end_matches('\n')

@@ -17,10 +17,10 @@ impl Bank {
             return self.read_stored_instance(instance);
         };
         if instance >= self.instances() {
-            return Err(BankError::Invalid(format!(
-                "instance {instance} is not in the bank (it holds instances 0 to {})",
-                self.instances().saturating_sub(1)
-            )));
+            return Err(BankError::NoSuchInstance {
+                instance,
+                last: self.instances().saturating_sub(1),
+            });
         }
         let (i, k) = fold.split(instance, self.stored_instances());
         let stored = self.read_stored_instance(i)?;
@@ -66,10 +66,10 @@ impl Bank {
     pub fn read_stored_instance(&self, instance: usize) -> Result<StoredInstance, BankError> {
         let n = self.stored_instances();
         if instance >= n {
-            return Err(BankError::Invalid(format!(
-                "instance {instance} is not in the bank (it holds instances 0 to {})",
-                n.saturating_sub(1)
-            )));
+            return Err(BankError::NoSuchInstance {
+                instance,
+                last: n.saturating_sub(1),
+            });
         }
         let mut row = instance;
         let shard = self

@@ -6,6 +6,8 @@
 
 pub(super) use super::flat_args::FlatArgs;
 use super::format_args::{CodecArg, EncodingArg};
+use super::refine_args::RefineArgs;
+use super::value_parsers::{parse_shard, parse_speed, parse_threads};
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
@@ -39,6 +41,12 @@ pub(super) enum Command {
         /// discretisation error, as a field record does (about 200× slower than the bank's).
         #[arg(long, conflicts_with = "noise_from")]
         converged: bool,
+        /// The profile with landings near the converged reference where the sensors see them
+        /// (40 rail elements a bay ±3 bays around the sensors, 4 µs fine steps, no
+        /// discretisation allowance): a bank about 13× the default's cost to build, for the
+        /// nightly cluster job (docs/identification.md, "Landings").
+        #[arg(long, conflicts_with_all = ["noise_from", "converged"])]
+        landings: bool,
         /// Measure the site's noise from these passes (good wheels or flats: the strikes are
         /// left out) and widen the uncertainty table's noise entry to it when it is above the
         /// table; the bank's calibration is the starting point.
@@ -237,44 +245,6 @@ impl GenerateArgs {
     }
 }
 
-/// Parses `--shard I/N`.
-/// The most worker threads a run may ask for.
-const MAX_THREADS: usize = 1024;
-
-fn parse_threads(s: &str) -> std::result::Result<usize, String> {
-    match s.parse::<usize>() {
-        Ok(n) if (1..=MAX_THREADS).contains(&n) => Ok(n),
-        _ => Err(format!(
-            "`{s}`: a whole number of threads from 1 to {MAX_THREADS}"
-        )),
-    }
-}
-
-fn parse_speed(s: &str) -> std::result::Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(v) if (1.0..=500.0).contains(&v) => Ok(v),
-        _ => Err(format!("`{s}`: a train speed in km/h from 1 to 500")),
-    }
-}
-
-fn parse_shard(s: &str) -> std::result::Result<(usize, usize), String> {
-    let (i, n) = s
-        .split_once('/')
-        .ok_or_else(|| format!("`{s}`: expected I/N, e.g. 0/4"))?;
-    let i: usize = i
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{s}`: I is not a number"))?;
-    let n: usize = n
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{s}`: N is not a number"))?;
-    if n == 0 || i >= n {
-        return Err(format!("`{s}`: need 0 <= I < N"));
-    }
-    Ok((i, n))
-}
-
 // `synth`.
 #[derive(Debug, Args)]
 pub(super) struct SynthArgs {
@@ -368,14 +338,8 @@ pub(super) struct IdentifyArgs {
     /// entropy curves.
     #[arg(long)]
     pub no_baselines: bool,
-    /// Also refine: simulate new flats inside the surviving cells with the bank's calibration
-    /// and falsify them at the same points (about 1.2 s on 2 cores for 640 simulations);
-    /// reported beside the bank-only answer (docs/identification.md#refinement).
-    #[arg(long)]
-    pub refine: bool,
-    /// Simulations of the refinement, split over its rounds (1–20000).
-    #[arg(long, default_value_t = 640, requires = "refine")]
-    pub refine_simulations: usize,
+    #[command(flatten)]
+    pub refine: RefineArgs,
     /// Also store the pass in this results database (SQLite; made when absent): its wheels'
     /// history, when the measurement names its bogie (`# bogie_id = …`; docs/history.md).
     #[arg(long)]
@@ -410,13 +374,8 @@ pub(super) struct WatchArgs {
     /// Process what is in the inbox, then exit (for cron jobs and tests).
     #[arg(long)]
     pub once: bool,
-    /// Also refine every answer (about 1.2 s a measurement, or a train's wheel with a flat, on
-    /// 2 cores; docs/identification.md#refinement).
-    #[arg(long)]
-    pub refine: bool,
-    /// Simulations of each refinement (1–20000).
-    #[arg(long, default_value_t = 640, requires = "refine")]
-    pub refine_simulations: usize,
+    #[command(flatten)]
+    pub refine: RefineArgs,
     /// Also store every pass in this results database (SQLite; made when absent). A train
     /// pass's bogies are named by `NAME.consist.csv` beside its recording (docs/history.md).
     #[arg(long)]
@@ -572,15 +531,6 @@ mod tests {
             parsed.generate,
             GenerateArgs::defaults(PathBuf::from("some/bank"), 123)
         );
-    }
-
-    #[test]
-    fn shards_parse_and_reject() {
-        assert_eq!(parse_shard("3/10"), Ok((3, 10)));
-        assert_eq!(parse_shard(" 0 / 1 "), Ok((0, 1)));
-        assert!(parse_shard("10/10").is_err());
-        assert!(parse_shard("1/0").is_err());
-        assert!(parse_shard("3").is_err());
     }
 
     #[test]

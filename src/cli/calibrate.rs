@@ -10,6 +10,7 @@ use wheelflat::history::Db;
 use wheelflat::site::{self, drift, passes, Interval, Options};
 
 /// Parses `--hours`: 0.1 to 8,760 (a year).
+// Err(String): a clap value parser: clap names the argument and prints the message.
 fn hours(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(h) if (0.1..=8760.0).contains(&h) => Ok(h),
@@ -129,14 +130,14 @@ pub(super) fn run(a: &CalibrateArgs) -> Result<i32> {
                 d.what, d.was, d.now[0], d.now[1], d.now[2]
             );
         }
-        write_file(&a.out, c.calibration.to_toml_string().as_bytes())?;
+        write_file(&a.out, c.calibration.to_operator_toml_string().as_bytes())?;
         println!(
             "wrote {} (rebuild the bank from it: scripts/regenerate-nightly.sh)",
             a.out.display()
         );
         return Ok(DRIFTED);
     }
-    write_file(&a.out, c.calibration.to_toml_string().as_bytes())?;
+    write_file(&a.out, c.calibration.to_operator_toml_string().as_bytes())?;
     println!("wrote {} and {}", a.out.display(), a.report.display());
     Ok(0)
 }

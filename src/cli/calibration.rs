@@ -8,8 +8,14 @@ use wheelflat::diagnose::noise::{self, NoiseAboveTable};
 use wheelflat::model::Calibration;
 
 /// Prints the profile's calibration (at the converged reference's mesh and step with
-/// `converged`), or writes it to `out`.
-pub(super) fn run(out: Option<&Path>, profile: Profile, converged: bool) -> Result<()> {
+/// `converged`; with converged landings around the sensors with `landings`), or writes it
+/// to `out`.
+pub(super) fn run(
+    out: Option<&Path>,
+    profile: Profile,
+    converged: bool,
+    landings: bool,
+) -> Result<()> {
     let cal = match profile {
         Profile::Paper => Calibration::paper_profile(),
         Profile::Site => Calibration::default(),
@@ -17,10 +23,12 @@ pub(super) fn run(out: Option<&Path>, profile: Profile, converged: bool) -> Resu
     };
     let text = if converged {
         cal.converged_reference()
+    } else if landings {
+        cal.with_converged_landings()
     } else {
         cal
     }
-    .to_toml_string();
+    .to_operator_toml_string();
     emit(out, &text)
 }
 
@@ -77,5 +85,5 @@ pub(super) fn site_noise(out: Option<&Path>, bank: &Path, passes: &[PathBuf]) ->
         ),
     };
     eprint!("{}", header.replace("# ", ""));
-    emit(out, &format!("{header}{}", cal.to_toml_string()))
+    emit(out, &format!("{header}{}", cal.to_operator_toml_string()))
 }

@@ -29,6 +29,7 @@ pub(super) struct FlatArgs {
 }
 
 /// `leading` or `trailing`.
+// Err(String): a clap value parser: clap names the argument and prints the message.
 fn parse_wheel(text: &str) -> Result<WheelPosition, String> {
     match text {
         "leading" => Ok(WheelPosition::Leading),

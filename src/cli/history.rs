@@ -46,6 +46,7 @@ pub(super) enum Rule {
 }
 
 /// A window in hours: positive, at most ten years.
+// Err(String): a clap value parser: clap names the argument and prints the message.
 fn parse_hours(s: &str) -> Result<f64, String> {
     let v: f64 = s
         .parse()

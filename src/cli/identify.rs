@@ -29,8 +29,8 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
         Extras::NONE
     };
     let mut id = identifier.identify(&m, i.sensors.as_deref(), extras)?;
-    if a.refine {
-        refine_into(&identifier, &mut id, a.refine_simulations)?;
+    if let Some(simulations) = a.refine.simulations() {
+        refine_into(&identifier, &mut id, simulations)?;
     }
     if let Some(db) = &mut db {
         let rec = record(&id, &identifier, &m, &i.measured)?;
@@ -40,7 +40,8 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
     if a.report {
         return report(&id, &a.out, None);
     }
-    let json = wheelflat::report::identify::write_identification_json(&id, &a.out)
+    let json = id
+        .write_json(&a.out)
         .with_context(|| format!("cannot write the result in {}", a.out.display()))?;
     print!("{}", identification_text(&id));
     println!(

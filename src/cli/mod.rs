@@ -21,10 +21,12 @@ mod format_args;
 mod history;
 mod identify;
 mod progress;
+mod refine_args;
 mod simulate;
 mod surface_args;
 mod synth;
 mod train;
+mod value_parsers;
 mod watch;
 
 use anyhow::{Context, Result};
@@ -55,13 +57,14 @@ pub fn main() -> ExitCode {
             out,
             profile,
             converged,
+            landings,
             noise_from,
             bank,
         } => match bank {
             Some(bank) if !noise_from.is_empty() => {
                 calibration::site_noise(out.as_deref(), &bank, &noise_from)
             }
-            _ => calibration::run(out.as_deref(), profile, converged),
+            _ => calibration::run(out.as_deref(), profile, converged, landings),
         },
         Command::Simulate(args) => simulate::run(&args),
         Command::Bank { command } => match command {

@@ -53,6 +53,7 @@ pub(super) struct SurfaceArgs {
     pub contact_filter: ContactFilter,
 }
 
+// Err(String): a clap value parser: clap names the argument and prints the message.
 fn parse_wheel(text: &str) -> Result<WheelPosition, String> {
     match text {
         "leading" => Ok(WheelPosition::Leading),
@@ -61,6 +62,7 @@ fn parse_wheel(text: &str) -> Result<WheelPosition, String> {
     }
 }
 
+// Err(String): a clap value parser: clap names the argument and prints the message.
 fn parse_seed(text: &str, rest: Option<&str>) -> Result<u64, String> {
     rest.map_or(Ok(1), |s| {
         s.parse()
@@ -68,6 +70,7 @@ fn parse_seed(text: &str, rest: Option<&str>) -> Result<u64, String> {
     })
 }
 
+// Err(String): a clap value parser: clap names the argument and prints the message.
 fn parse_class_seed(text: &str) -> Result<(RoughnessClass, u64), String> {
     let (name, seed) = text
         .split_once(':')
@@ -80,6 +83,7 @@ fn parse_class_seed(text: &str) -> Result<(RoughnessClass, u64), String> {
     Ok((class, parse_seed(text, seed)?))
 }
 
+// Err(String): a clap value parser: clap names the argument and prints the message.
 fn parse_rail_seed(text: &str) -> Result<(RoughnessClass, u64), String> {
     let (name, seed) = text
         .split_once(':')
@@ -90,6 +94,7 @@ fn parse_rail_seed(text: &str) -> Result<(RoughnessClass, u64), String> {
     Ok((RoughnessClass::RailIso3095, parse_seed(text, seed)?))
 }
 
+// Err(String): a clap value parser: clap names the argument and prints the message.
 fn parse_harmonic(text: &str) -> Result<(WheelPosition, Harmonic), String> {
     let f: Vec<&str> = text.split(':').collect();
     if !(3..=4).contains(&f.len()) {
@@ -103,6 +108,7 @@ fn parse_harmonic(text: &str) -> Result<(WheelPosition, Harmonic), String> {
         .ok()
         .filter(|n| (1..=100).contains(n))
         .ok_or_else(|| format!("`{text}`: order `{}` is not a whole number 1 to 100", f[1]))?;
+    // Err(String): a clap value parser: clap names the argument and prints the message.
     let num = |s: &str, what: &str, lim: f64| -> Result<f64, String> {
         s.parse::<f64>()
             .ok()
@@ -121,6 +127,7 @@ fn parse_harmonic(text: &str) -> Result<(WheelPosition, Harmonic), String> {
     ))
 }
 
+// Err(String): a clap value parser: clap names the argument and prints the message.
 fn parse_filter(text: &str) -> Result<ContactFilter, String> {
     let (patch, rolling_circle) = match text {
         "default" => (true, true),

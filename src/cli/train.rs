@@ -22,13 +22,8 @@ pub(super) struct TrainArgs {
     /// Report folder: `train.csv`, `train.json`, `train.html`.
     #[arg(long)]
     pub out: PathBuf,
-    /// Also refine every wheel with a flat (about 1.2 s a wheel on 2 cores); its severity is
-    /// then taken from the refined L0 range (docs/train.md).
-    #[arg(long)]
-    pub refine: bool,
-    /// Simulations of each wheel's refinement (1–20000).
-    #[arg(long, default_value_t = 640, requires = "refine")]
-    pub refine_simulations: usize,
+    #[command(flatten)]
+    pub refine: super::refine_args::RefineArgs,
     /// The consist: a CSV `bogie_id` with one id per bogie in running order, naming the
     /// wheels (`<bogie_id>/leading`, `…/trailing`) in the table and the results database.
     #[arg(long)]
@@ -48,7 +43,7 @@ pub(super) fn run(a: &TrainArgs) -> Result<()> {
         &a.recording,
         &a.triggers,
         a.consist.as_deref(),
-        a.refine.then_some(a.refine_simulations),
+        a.refine.simulations(),
     )?;
     if let Some(db) = &mut db {
         let stored = train_pass::store_train(db, &members, &pass, &[&a.recording, &a.triggers])?;

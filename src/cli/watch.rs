@@ -104,7 +104,7 @@ fn identify_one(
             path,
             triggers,
             beside.consist.as_deref(),
-            a.refine.then_some(a.refine_simulations),
+            a.refine.simulations(),
         )?;
         wheelflat::pass::train::write_train(&pass.result, out)?;
         // Stored before the inputs move: a crash between the two stores nothing twice.
@@ -128,7 +128,7 @@ fn identify_one(
             }
         ));
     }
-    let refine = a.refine.then_some(a.refine_simulations);
+    let refine = a.refine.simulations();
     let pass = wheelflat::pass::single::identify_file(
         &mut open.members,
         path,

@@ -18,8 +18,10 @@ pub(crate) const DIP_REACH_M: f64 = 3.5;
 /// Makes the effect of a family from its fitted parameters.
 pub(crate) type Build = Box<dyn Fn(&[f64]) -> Effect + Send + Sync>;
 
-/// A family of an effect kind: one discrete choice, its continuous parameters and seeds.
-pub struct Family {
+/// One discrete choice of an effect kind (a family of effects: which sleeper, sensor, wheel
+/// or polygon order), its continuous parameters and seeds. (Not a bank family,
+/// [`crate::bank::family`].)
+pub struct EffectChoice {
     /// The kind.
     pub kind: EffectKind,
     /// Where it acts, for people.
@@ -31,9 +33,19 @@ pub struct Family {
     /// The effect of parameter values.
     pub build: Build,
     /// Seeds fitted from this family: 2, or more for a kind of one family whose seeds spread
-    /// over a position (a dip, a second flat), taken at least `spread.1` apart in parameter
-    /// `spread.0`.
-    pub spread: Option<(usize, f64, usize)>,
+    /// over a position (a dip, a second flat), as [`Spread`] says.
+    pub spread: Option<Spread>,
+}
+
+/// How the seeds of a family that spreads over a position are taken.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Spread {
+    /// The parameter they spread in (an index into the family's parameters).
+    pub param: usize,
+    /// How far apart in it two seeds must be.
+    pub apart: f64,
+    /// Up to how many of them.
+    pub seeds: usize,
 }
 
 /// Where to look: the calibration and the measurement's sensors.
@@ -62,7 +74,7 @@ pub struct Context {
 }
 
 /// The library's effects as families to fit.
-pub fn families(ctx: &Context) -> Vec<Family> {
+pub fn families(ctx: &Context) -> Vec<EffectChoice> {
     let mut out = Vec::new();
     sleeper_families(ctx, &mut out);
     rail_families(ctx, &mut out);
@@ -77,8 +89,8 @@ fn family(
     params: Vec<Param>,
     seeds: Vec<Vec<f64>>,
     build: Build,
-) -> Family {
-    Family {
+) -> EffectChoice {
+    EffectChoice {
         kind,
         location,
         params,
@@ -88,7 +100,7 @@ fn family(
     }
 }
 
-fn sleeper_families(ctx: &Context, out: &mut Vec<Family>) {
+fn sleeper_families(ctx: &Context, out: &mut Vec<EffectChoice>) {
     let ln = f64::ln;
     for &k in &ctx.sleepers {
         out.push(family(
@@ -124,7 +136,7 @@ fn sleeper_families(ctx: &Context, out: &mut Vec<Family>) {
     }
 }
 
-fn rail_families(ctx: &Context, out: &mut Vec<Family>) {
+fn rail_families(ctx: &Context, out: &mut Vec<EffectChoice>) {
     let lo = ctx
         .sensor_positions_m
         .iter()
@@ -171,7 +183,11 @@ fn rail_families(ctx: &Context, out: &mut Vec<Family>) {
     );
     // Three starts at least a bay apart: a dip met by both wheels has look-alikes a
     // wheelbase away.
-    dip.spread = Some((0, 0.7, 3));
+    dip.spread = Some(Spread {
+        param: 0,
+        apart: 0.7,
+        seeds: 3,
+    });
     out.push(dip);
     let quadrature = |a: f64| vec![[a, 0.0], [0.0, a], [-a, 0.0], [0.0, -a]];
     let mut irr_seeds = Vec::new();
@@ -197,7 +213,7 @@ fn rail_families(ctx: &Context, out: &mut Vec<Family>) {
     ));
 }
 
-fn wheel_families(ctx: &Context, out: &mut Vec<Family>) {
+fn wheel_families(ctx: &Context, out: &mut Vec<EffectChoice>) {
     for &wheel in &ctx.wheels {
         for order in 1..=ctx.max_order {
             out.push(family(
@@ -268,12 +284,16 @@ fn wheel_families(ctx: &Context, out: &mut Vec<Family>) {
                 impact_position_m: p[3],
             }),
         );
-        f.spread = Some((3, 0.3, 2));
+        f.spread = Some(Spread {
+            param: 3,
+            apart: 0.3,
+            seeds: 2,
+        });
         out.push(f);
     }
 }
 
-fn clock_and_body_families(ctx: &Context, out: &mut Vec<Family>) {
+fn clock_and_body_families(ctx: &Context, out: &mut Vec<EffectChoice>) {
     let ln = f64::ln;
     for name in &ctx.sensors {
         let sensor = name.clone();
@@ -303,7 +323,11 @@ fn clock_and_body_families(ctx: &Context, out: &mut Vec<Family>) {
             .collect(),
         Box::new(|p| Effect::TimeOffset { offset_ms: p[0] }),
     );
-    clock.spread = Some((0, 2.0, 3));
+    clock.spread = Some(Spread {
+        param: 0,
+        apart: 2.0,
+        seeds: 3,
+    });
     out.push(clock);
     let mut speed = family(
         EffectKind::SpeedDeviation,
@@ -315,7 +339,11 @@ fn clock_and_body_families(ctx: &Context, out: &mut Vec<Family>) {
             .collect(),
         Box::new(|p| Effect::SpeedDeviation { fraction: p[0] }),
     );
-    speed.spread = Some((0, 0.015, 3));
+    speed.spread = Some(Spread {
+        param: 0,
+        apart: 0.015,
+        seeds: 3,
+    });
     out.push(speed);
     let quadrature = |a: f64| vec![[a, 0.0], [0.0, a], [-a, 0.0], [0.0, -a]];
     let mut bounce_seeds = Vec::new();
@@ -342,7 +370,7 @@ fn clock_and_body_families(ctx: &Context, out: &mut Vec<Family>) {
 }
 
 /// The location of an effect for people (finer than the family's for fitted positions).
-pub(crate) fn location_of(family: &Family, e: &Effect) -> String {
+pub(crate) fn location_of(family: &EffectChoice, e: &Effect) -> String {
     match e {
         Effect::RailDip {
             position_m,

@@ -169,9 +169,12 @@ pub enum DiagnoseError {
         #[source]
         source: crate::model::CalibrationError,
     },
-    /// Something else.
-    #[error("{0}")]
-    Other(String),
+    /// The flat-only fit found no finite misfit from any start.
+    #[error("the flat-only fit failed at every start")]
+    FlatOnlyFit,
+    /// No instance of the bank gave a finite misfit against the record.
+    #[error("no bank instance could be compared")]
+    NothingComparable,
 }
 
 /// The measured series of identification `id` of `m` on the bank's windows, as recorded (the
@@ -248,9 +251,7 @@ pub fn best_bank_instances(
     let mut order: Vec<usize> = (0..n_inst).filter(|&i| chi2[i].is_finite()).collect();
     order.sort_by(|&a, &b| chi2[a].total_cmp(&chi2[b]));
     let Some(&first) = order.first() else {
-        return Err(DiagnoseError::Other(
-            "no bank instance could be compared".into(),
-        ));
+        return Err(DiagnoseError::NothingComparable);
     };
     let wheel = crate::model::WheelPosition::from_code(params.flat_wheel[first]);
     Ok(order
@@ -312,7 +313,7 @@ pub fn diagnose(
     opts: &Options,
     observer: &dyn crate::bank::GenerateObserver,
 ) -> Result<Diagnosis, DiagnoseError> {
-    let mut clock = crate::identify::Laps::start_in_seconds();
+    let mut clock = crate::stopwatch::Stopwatch::start_s();
     let before = locate(identifier, id)?;
     let before_stage = Stage::of(id, &before);
     clock.lap("locate");
@@ -333,7 +334,7 @@ pub fn diagnose(
             "no missing effect found: the best instance ({}) agrees with the measurement within the thresholds at all {} samples",
             out.before.instance, out.before_stage.samples
         );
-        out.timings_s = clock.timings;
+        out.timings_s = clock.laps;
         return Ok(out);
     }
     let cal = identifier
@@ -355,7 +356,7 @@ pub fn diagnose(
             "no missing effect found: the flat alone, fitted between the bank's instances (L {:.1} mm, d {:.3} mm, X_p {:.4} m), agrees within the thresholds at every sample; the {} samples outside were the bank's resolution",
             flat0[0], flat0[1], flat0[3], out.before.samples_outside
         );
-        out.timings_s = clock.timings;
+        out.timings_s = clock.laps;
         return Ok(out);
     }
     let (flat_only, estimate) = stages::under_the_records_noise(flat_only, opts, &cal);
@@ -383,6 +384,6 @@ pub fn diagnose(
         out.added = Some(added);
     }
     out.naming = Some(naming);
-    out.timings_s = clock.timings;
+    out.timings_s = clock.laps;
     Ok(out)
 }

@@ -17,7 +17,7 @@
 //! discrete choices: the more places an effect may sit, the more it must explain).
 
 use super::fit::{levenberg_marquardt, Evaluation, FlatVector, Param, Problem, Role};
-pub use super::library::{families, Context, Family};
+pub use super::library::{families, Context, EffectChoice};
 use super::library::{location_of, sleeper_of};
 pub use super::outcome::{Candidate, CandidateKind, Estimate, Naming};
 use super::restart::fit_with_restart;
@@ -161,8 +161,8 @@ pub(crate) fn place_uncertainty(best: &Candidate, all: &[Candidate]) -> String {
 
 /// The seeds (indices into `seeds`, best first) a kind's fits start from: two, of different
 /// families when the kind has several; for families that spread (a dip, a second flat on
-/// each wheel), each family's `spread.2` best at least `spread.1` apart in parameter
-/// `spread.0`.
+/// each wheel), each family's [`super::library::Spread`]: its `seeds` best at least `apart`
+/// apart in parameter `param`.
 /// Effect family `fam` fitted from `seed` over its parameters and X_p, the flat's L, d, c held
 /// at `flat` and the effects `held` held too (none for a single effect). The impact position
 /// moves with every effect that shifts the series in time, so it is fitted here too. The
@@ -171,7 +171,7 @@ pub(crate) fn fit_held(
     problem: &Problem,
     judge: &Judge,
     flat_params: &[Param],
-    fam: &Family,
+    fam: &EffectChoice,
     seed: &[f64],
     flat: FlatVector,
     held: &[Effect],
@@ -197,7 +197,7 @@ pub(crate) fn fit_held(
 /// The starts of kind `kind` among `seeds` (family, seed) scored `seed_chi2`: its finite
 /// seeds best first, picked by [`pick_starts`].
 pub(crate) fn kind_starts(
-    families: &[Family],
+    families: &[EffectChoice],
     seeds: &[(usize, usize)],
     seed_chi2: &[f64],
     kind: EffectKind,
@@ -211,7 +211,7 @@ pub(crate) fn kind_starts(
 }
 
 fn pick_starts(
-    families: &[Family],
+    families: &[EffectChoice],
     seeds: &[(usize, usize)],
     best_first: &[usize],
     several: bool,
@@ -221,13 +221,14 @@ fn pick_starts(
         let (f, s) = seeds[i];
         let fam = &families[f];
         let clash = match fam.spread {
-            // Spread seeds: up to n of this family, at least d apart in parameter p.
-            Some((p, d, n)) => {
+            // Spread seeds: up to `seeds` of this family, at least `apart` apart in `param`.
+            Some(sp) => {
                 let mine: Vec<&(usize, usize)> = taken.iter().filter(|t| t.0 == f).collect();
-                mine.len() >= n
+                let p = sp.param;
+                mine.len() >= sp.seeds
                     || mine
                         .iter()
-                        .any(|&&(_, ts)| (fam.seeds[ts][p] - fam.seeds[s][p]).abs() < d)
+                        .any(|&&(_, ts)| (fam.seeds[ts][p] - fam.seeds[s][p]).abs() < sp.apart)
             }
             None => taken.len() >= 2 || (several && taken.iter().any(|t| t.0 == f)),
         };
@@ -264,7 +265,7 @@ struct Fit {
 pub fn name(
     problem: &Problem,
     judge: &Judge,
-    families: &[Family],
+    families: &[EffectChoice],
     flat_params: &[Param],
     flat0: FlatVector,
     none: &Evaluation,

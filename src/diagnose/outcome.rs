@@ -102,6 +102,7 @@ impl From<CandidateKind> for String {
 
 impl TryFrom<String> for CandidateKind {
     type Error = String;
+    // Err(String): serde's `try_from` wants a displayable error; the stored text is named in it.
     fn try_from(s: String) -> Result<CandidateKind, String> {
         if s == "none" {
             return Ok(CandidateKind::None);

@@ -10,7 +10,7 @@
 //! parameters; M the families of each kind, as for one effect).
 
 use super::fit::{levenberg_marquardt, Evaluation, FlatVector, Param, Problem};
-use super::library::{location_of, Family};
+use super::library::{location_of, EffectChoice};
 use super::name::{
     chi2_z, fit_held, fit_rms, flat_mm, kind_starts, same_place, Candidate, CandidateKind,
     Estimate, Judge, ADEQUATE_Z, CLEARLY_BETTER,
@@ -39,7 +39,7 @@ fn actual2(judge: &Judge, apparent: FlatVector, e1: &Effect, e2: &Effect) -> Fla
 pub(crate) fn forward(
     problem: &Problem,
     judge: &Judge,
-    families: &[Family],
+    families: &[EffectChoice],
     flat_params: &[Param],
     first: &Candidate,
     singles: &[Candidate],
@@ -51,7 +51,7 @@ pub(crate) fn forward(
     let x1: Vec<f64> = first.parameters.iter().map(|p| p.value).collect();
     let e1 = (f1.build)(&x1);
     let apparent = first.apparent;
-    let penalty = |f: &Family| 2.0 * (per_kind(f.kind) as f64).ln();
+    let penalty = |f: &EffectChoice| 2.0 * (per_kind(f.kind) as f64).ln();
     // Seeds of every other family, the first effect and the flat held.
     let seeds: Vec<(usize, usize)> = families
         .iter()
@@ -100,9 +100,9 @@ pub(crate) fn forward(
             Some((f, r.x[1..].to_vec(), r.x[0], r.eval))
         })
         .collect();
-    let k_pair = |f2: &Family| 4 + f1.params.len() + f2.params.len();
+    let k_pair = |f2: &EffectChoice| 4 + f1.params.len() + f2.params.len();
     let bic_pair =
-        |chi2: f64, f2: &Family| chi2 + k_pair(f2) as f64 * ln_n + penalty(f1) + penalty(f2);
+        |chi2: f64, f2: &EffectChoice| chi2 + k_pair(f2) as f64 * ln_n + penalty(f1) + penalty(f2);
     let mut order: Vec<usize> = (0..held.len()).collect();
     order.sort_by(|&a, &b| {
         let (fa, fb) = (&families[held[a].0], &families[held[b].0]);

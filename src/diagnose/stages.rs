@@ -9,8 +9,9 @@ use super::{
     best_bank_instances, fit, library, locate, name, noise, restart, select, Added, DiagnoseError,
     Diagnosis, Located, Naming, Options, Stage,
 };
-use crate::identify::{Identifier, Laps};
+use crate::identify::Identifier;
 use crate::model::{CheckedCalibration, Effect, EffectKind, WheelPosition};
+use crate::stopwatch::Stopwatch;
 
 /// A candidate that adds a second flat.
 const SECOND_FLAT: name::CandidateKind = name::CandidateKind::Effect(EffectKind::SecondFlat);
@@ -75,7 +76,7 @@ pub(super) fn fit_flat_alone<'a>(
     let best = fits
         .into_iter()
         .min_by(|a, b| a.eval.chi2.total_cmp(&b.eval.chi2))
-        .ok_or_else(|| DiagnoseError::Other("the flat-only fit failed at every start".into()))?;
+        .ok_or(DiagnoseError::FlatOnlyFit)?;
     let start = [best.x[0], best.x[1], best.x[2], best.x[3]];
     let best = restart::flat_restart(&flat_params, start, best.eval.chi2, &chi2_of)
         .and_then(|v| fit_from(&v))
@@ -256,7 +257,7 @@ pub(super) fn add_and_identify_again(
     flat: [f64; 4],
     opts: &Options,
     dir: &Path,
-    clock: &mut Laps,
+    clock: &mut Stopwatch,
 ) -> Result<Added, DiagnoseError> {
     let (cal, wheel) = (a.cal, a.wheel);
     let bank = a.identifier.bank();

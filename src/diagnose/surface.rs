@@ -16,7 +16,7 @@
 //! [`ONE_WHEEL_POWER_RATIO`] times the other's power above `N`. A departure whose power is
 //! within [`NOISE_FACTOR`] of `N` names nothing.
 
-use crate::identify::compare::Comparison;
+use crate::identify::input::compare::Comparison;
 use crate::identify::{Identification, Identifier, Measurement};
 use crate::model::average::{centred_average, BINOMIAL5};
 use crate::model::WheelPosition;

@@ -9,7 +9,7 @@
 //! 4711-2
 //! ```
 
-use crate::identify::measurement::check_bogie_id;
+use crate::identify::input::measurement::check_bogie_id;
 use crate::identify::IdentifyError;
 use std::path::Path;
 

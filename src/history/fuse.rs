@@ -247,6 +247,13 @@ pub fn fuse(
     joint
 }
 
+/// A run of consecutive passes that agree: from pass `first` to the next run's first (or
+/// the window's end), and the hypotheses they share.
+struct Run {
+    first: usize,
+    shared: Hyp,
+}
+
 /// Why the passes have nothing in common, and the answer then: a change (newest run against
 /// older passes wholly below or above it), one pass out, or disagreement (every hypothesis any
 /// pass allows).
@@ -258,7 +265,7 @@ fn explain(
     let n = hyps.len();
     // The window cut into runs that agree, from the newest back: each run as long as its
     // passes have something in common.
-    let mut runs: Vec<(usize, usize, Hyp)> = Vec::new(); // (first, end, what they share)
+    let mut runs: Vec<Run> = Vec::new();
     let mut end = n;
     while end > 0 {
         let mut first = end - 1;
@@ -271,13 +278,13 @@ fn explain(
             acc = next;
             first -= 1;
         }
-        runs.push((first, end, acc));
+        runs.push(Run { first, shared: acc });
         end = first;
     }
     runs.reverse();
     // A change: every run wholly above (grew) or below (smaller) the one before it in L0.
     if runs.len() >= 2 {
-        let l0: Vec<Option<[f64; 2]>> = runs.iter().map(|r| r.2.l0(grid)).collect();
+        let l0: Vec<Option<[f64; 2]>> = runs.iter().map(|r| r.shared.l0(grid)).collect();
         if l0.iter().all(Option::is_some) {
             let l0: Vec<[f64; 2]> = l0.into_iter().flatten().collect();
             let grew = l0
@@ -287,7 +294,7 @@ fn explain(
                 .windows(2)
                 .all(|w| w[1][1] <= w[0][0] && w[1][0] < w[0][0]);
             if grew || shrank {
-                let since = runs[runs.len() - 1].0;
+                let since = runs[runs.len() - 1].first;
                 let run: Vec<usize> = (since..n).collect();
                 return (
                     Agreement::Changed { since, grew },

@@ -5,61 +5,50 @@
 //! parameters, the Monte Carlo uncertainty samples); [`Identifier::identify`] is the per-
 //! measurement path: align, PIP, read the candidate columns, entropy selection, falsify.
 
-mod baselines;
-pub(crate) mod buffer;
-pub(crate) mod cells;
-pub mod compare;
+// The stages, each folder using only those above it here: the pass as the bank sees it; the
+// error domain (the uncertainty table, the thresholds, the cells and the falsification rule);
+// detection; where to compare; what the answer says.
+pub(crate) mod answer;
 pub(crate) mod detect;
-mod discretisation;
-pub(crate) mod entropy;
-pub mod envelope;
-pub mod falsify;
-pub(crate) mod family;
-mod flat_free;
-pub(crate) mod harmonic;
-pub(crate) mod load;
-pub(crate) mod measurement;
-pub mod out_of_round;
-pub(crate) mod pip;
-mod prepare;
-pub(crate) mod ranges;
+pub(crate) mod domain;
+mod identifier;
+pub(crate) mod input;
 pub mod refine;
-pub mod result;
-pub mod roughness;
-pub(crate) mod severity;
-pub(crate) mod sparse;
-pub(crate) mod spike;
+pub(crate) mod select;
 mod stages;
 pub mod synth;
-pub(crate) mod table_bounds;
-pub(crate) mod uncertainty;
 
-pub use measurement::Measurement;
+// The public modules of the stages, under the paths they had before the stage folders.
+pub use answer::json;
+pub use answer::result;
+pub use detect::out_of_round;
+pub use detect::roughness;
+pub use domain::falsify;
+pub use input::compare;
+pub use select::envelope;
+
+pub use answer::severity::{FlatVerdict, Severity, SeverityRange};
+pub use identifier::Identifier;
+pub use input::measurement::Measurement;
 pub use result::Identification;
-pub use severity::{FlatVerdict, Severity, SeverityRange};
 
-use crate::bank::{Bank, BankError, Parameters};
-use crate::model::calibration::IdentificationParams;
+use crate::bank::BankError;
 use crate::model::WheelPosition;
+use crate::stopwatch::Stopwatch;
 
 pub use compare::Comparison;
+pub use detect::spike::SpikeTest;
 pub use detect::{Detection, DetectionLimit};
-use falsify::{falsify, Resolution};
-use prepare::Prepared;
-use ranges::ranges_of;
-use result::ParamRanges;
+use input::prepare::Prepared;
 pub use result::WheelRanges;
 pub use roughness::RoughnessUse;
-pub use spike::SpikeTest;
-pub(crate) use stages::Laps;
 use std::path::PathBuf;
-use std::sync::Mutex;
 use thiserror::Error;
 
-pub use cells::{unit_points, Cells};
-pub use family::Members;
-pub use ranges::wheels_of;
-pub use uncertainty::{CombinedUncertainty, ThresholdCurve};
+pub use answer::ranges::wheels_of;
+pub use detect::family::Members;
+pub use domain::cells::{unit_points, Cells};
+pub use domain::uncertainty::{CombinedUncertainty, ThresholdCurve};
 
 /// Errors of identification.
 #[derive(Debug, Error)]
@@ -111,10 +100,52 @@ pub enum IdentifyError {
         #[source]
         source: std::io::Error,
     },
-    /// A setting or request outside its range, or a bank that cannot serve it, named with
-    /// its value.
-    #[error("{0}")]
-    Invalid(String),
+    /// A refinement setting outside its range, named with its value.
+    #[error("refine {setting} = {value}: must be {range}")]
+    Setting {
+        /// The setting, in words ("simulations", "kappa", …).
+        setting: &'static str,
+        /// Its value as given.
+        value: String,
+        /// The range it must lie in.
+        range: &'static str,
+    },
+    /// A pass without its speed, against a family (its speed picks the member).
+    #[error("{}: the pass's speed is needed to pick a bank", path.display())]
+    NoSpeed {
+        /// The measurement.
+        path: PathBuf,
+    },
+    /// No member of a family over loads at the pass's speed holds the load the record shows.
+    #[error("{refusal} (the record's load: {:.1}–{:.1} kN a wheel, {:.0} %; car body ≈ {car_body_mass_kg:.0} kg)", interval_kn[0], interval_kn[1], probability * 100.0)]
+    Load {
+        /// Why no member holds it (in the message, so not a source: its words once).
+        refusal: crate::bank::family::SpeedError,
+        /// The load interval the record shows (kN a wheel).
+        interval_kn: [f64; 2],
+        /// The interval's probability.
+        probability: f64,
+        /// The car-body mass that load means (kg).
+        car_body_mass_kg: f64,
+    },
+    /// The bank's roughness table has no row for the wheels the settings state.
+    #[error("the bank's roughness table has no row for {wheels} wheels")]
+    NoRoughnessRow {
+        /// The wheels stated, in words.
+        wheels: &'static str,
+    },
+    /// A bank's stored calibration that no longer checks or builds a model (a bank from
+    /// another version), for a refinement that simulates with it.
+    #[error("bank {bank_id}: its stored calibration: {reason}")]
+    StoredCalibration {
+        /// The bank.
+        bank_id: String,
+        /// Why, as the calibration check or the model says it (either error's words).
+        reason: String,
+    },
+    /// A refinement's simulation of a flat failed.
+    #[error("refinement: simulating a flat failed: {0}")]
+    Simulation(crate::model::SimError),
 }
 
 /// Which optional parts of the analysis to run besides the method itself.
@@ -144,208 +175,7 @@ impl Extras {
     };
 }
 
-/// What is kept open between measurements.
-pub struct Identifier {
-    bank: Bank,
-    params: Parameters,
-    /// Each instance's neighbours and cell (the bank's resolution).
-    cells: Cells,
-    settings: IdentificationParams,
-    uncertainty: CombinedUncertainty,
-    /// The table's hard bounds the detection step and the departure rule judge with.
-    bounds: detect::TableBounds,
-    /// Each instance's discretisation share (empty: none; [`Identifier::discretisation`]).
-    discretisation: Vec<f32>,
-    buffers: Mutex<buffer::HugeBuffer>,
-    bin_buffers: Mutex<buffer::HugeBuffer>,
-    /// The bank's departures tables (samples, averaged), loaded when a pass first needs one.
-    departures: [Mutex<Option<std::sync::Arc<crate::bank::departures::Departures>>>; 2],
-    /// The bank's flat-free predictions through the average, per axis ([`compare`]).
-    flat_free_averaged: Vec<Vec<f32>>,
-    /// The table's level factor per number of sensors ([`load::level_factor`]), drawn once.
-    load_levels: Mutex<std::collections::HashMap<usize, (f64, [f64; 2])>>,
-    /// The bank's roughness table, loaded when a pass first needs it ([`roughness`]).
-    roughness: Mutex<Option<std::sync::Arc<crate::bank::roughness::RoughnessTable>>>,
-    /// The high-frequency level the settings' noise alone gives ([`roughness::noise_hf_kn`]),
-    /// drawn when a pass first needs it.
-    noise_hf: std::sync::OnceLock<f64>,
-    /// The bank's out-of-round basis, simulated when a pass first needs it ([`out_of_round`]).
-    out_of_round: Mutex<Option<std::sync::Arc<crate::bank::out_of_round::OutOfRoundBasis>>>,
-}
-
 impl Identifier {
-    /// Opens the reusable state for a bank, with identification settings (the bank's stored
-    /// calibration's, or the user's).
-    pub fn new(bank: Bank, settings: IdentificationParams) -> Result<Identifier, IdentifyError> {
-        // The stored graph when it was searched in today's metric; else (a bank written
-        // before the metric was stretched) searched now, 0.3 s for 50,000 instances.
-        let population = &bank.metadata().calibration.population;
-        let stored = bank
-            .neighbour_weights()
-            .is_some_and(|w| crate::bank::neighbours::in_metric_of(w, population));
-        let params = bank.read_parameters()?;
-        let cells = Cells::new(&params, population, bank.neighbours().filter(|_| stored));
-        Ok(Identifier::from_parts(bank, settings, params, cells))
-    }
-
-    /// [`Identifier::new`] with the cells' neighbour graph given (`None`: searched now).
-    pub fn with_neighbours(
-        bank: Bank,
-        settings: IdentificationParams,
-        graph: Option<Vec<u32>>,
-    ) -> Result<Identifier, IdentifyError> {
-        let params = bank.read_parameters()?;
-        let population = &bank.metadata().calibration.population;
-        let cells = Cells::new(&params, population, graph.as_deref());
-        Ok(Identifier::from_parts(bank, settings, params, cells))
-    }
-
-    /// The identifier of an opened bank, its parameters and cells (the buffers empty until the
-    /// first measurement).
-    fn from_parts(
-        bank: Bank,
-        settings: IdentificationParams,
-        params: Parameters,
-        cells: Cells,
-    ) -> Identifier {
-        let uncertainty = CombinedUncertainty::new(&settings);
-        let bounds = detect::TableBounds::of(&settings);
-        let discretisation = discretisation::shares(&settings, &params, &bank);
-        let flat_free_averaged = compare::averaged_templates(&bank.metadata().flat_free_kn);
-        Identifier {
-            bank,
-            params,
-            cells,
-            settings,
-            uncertainty,
-            bounds,
-            discretisation,
-            buffers: Mutex::new(buffer::HugeBuffer::default()),
-            bin_buffers: Mutex::new(buffer::HugeBuffer::default()),
-            departures: [Mutex::new(None), Mutex::new(None)],
-            flat_free_averaged,
-            load_levels: Mutex::new(std::collections::HashMap::new()),
-            roughness: Mutex::new(None),
-            noise_hf: std::sync::OnceLock::new(),
-            out_of_round: Mutex::new(None),
-        }
-    }
-
-    /// The bank.
-    pub fn bank(&self) -> &Bank {
-        &self.bank
-    }
-
-    /// The bank's parameters (one row per instance).
-    pub fn params(&self) -> &Parameters {
-        &self.params
-    }
-
-    /// The settings in use.
-    pub fn settings(&self) -> &IdentificationParams {
-        &self.settings
-    }
-
-    /// The table's hard bounds a good wheel's record stays within ([`detect::TableBounds`];
-    /// a pass adds its roughness, [`RoughnessUse::bounds`]).
-    pub fn table_bounds(&self) -> detect::TableBounds {
-        self.bounds
-    }
-
-    /// Thresholds `[low, high]` on `prediction − measurement` (kN) where the measured force is
-    /// `y_kn`, holding probability `p` (the combined uncertainty of the settings).
-    pub fn thresholds(&self, y_kn: f64, p: f64) -> (f64, f64) {
-        self.uncertainty.thresholds(y_kn, p)
-    }
-
-    /// The thresholds `[low, high]` on `g − y` that falsification applies to a prediction
-    /// `g_kn` at a point measured at `y_kn`, with per-point probability `p`: the measured
-    /// force's, or the prediction's own where it is larger ([`ThresholdCurve`]).
-    pub fn band(&self, y_kn: f64, g_kn: f64, p: f64) -> (f64, f64) {
-        if g_kn.abs() > y_kn.abs() {
-            self.threshold_curve(y_kn, p).at(g_kn)
-        } else {
-            self.uncertainty.thresholds(y_kn, p)
-        }
-    }
-
-    /// The thresholds of a point measured at `y_kn` as a function of the prediction's force
-    /// ([`ThresholdCurve`]), at per-point probability `p`.
-    pub fn threshold_curve(&self, y_kn: f64, p: f64) -> ThresholdCurve {
-        self.uncertainty.curve(y_kn, p)
-    }
-
-    /// The bank's flat-free prediction of bank axis `axis` at its samples `from..=to` as
-    /// comparison `c` sees it (kN), the largest magnitude: what the bounded sources (a rough
-    /// tread or rail) scale with at a comparison point or window.
-    pub fn flat_free_peak_kn(&self, axis: usize, from: usize, to: usize, c: Comparison) -> f64 {
-        let t = self.flat_free(axis, c);
-        let last = t.len().saturating_sub(1);
-        t[from.min(last)..=to.min(last)]
-            .iter()
-            .fold(0.0f64, |m, &g| m.max(f64::from(g).abs()))
-    }
-
-    /// The threshold curve of a point measured at `y_kn` whose flat-free prediction is
-    /// `flat_free_kn`, in a pass judged with `roughness`: the table's curve widened by its
-    /// bounded sources and by the roughness' bound there.
-    pub fn point_curve(
-        &self,
-        roughness: &RoughnessUse,
-        y_kn: f64,
-        flat_free_kn: f64,
-        p: f64,
-    ) -> ThresholdCurve {
-        let (a, b) = self.uncertainty.good_wheel_widening(flat_free_kn);
-        let w = roughness.widening_kn(flat_free_kn);
-        self.uncertainty.curve(y_kn, p).widened((a - w, b + w))
-    }
-
-    /// The thresholds of a point measured at `y_kn` whose flat-free prediction is
-    /// `flat_free_kn`, in a pass judged with `roughness` (as [`Identifier::point_curve`]).
-    pub fn point_thresholds(
-        &self,
-        roughness: &RoughnessUse,
-        y_kn: f64,
-        flat_free_kn: f64,
-        p: f64,
-    ) -> (f64, f64) {
-        let (lo, hi) = self.uncertainty.thresholds_at(y_kn, flat_free_kn, p);
-        let w = roughness.widening_kn(flat_free_kn);
-        (lo - w, hi + w)
-    }
-
-    /// The bank's resolution as falsification uses it (`None` when switched off).
-    pub fn resolution(&self) -> Option<Resolution<'_>> {
-        (self.settings.bank_resolution > 0.0).then_some(Resolution {
-            cells: &self.cells,
-            kappa: self.settings.bank_resolution,
-        })
-    }
-
-    /// The typical widening at a point: κ × the median neighbour spread (0 when off).
-    fn typical_widening(&self, predictions: &[f32]) -> f64 {
-        match self.resolution() {
-            Some(r) => r.kappa * r.cells.typical_spread(predictions, 1024),
-            None => 0.0,
-        }
-    }
-
-    /// The parameter ranges a set of instances stands for.
-    fn ranges(&self, members: impl Iterator<Item = usize> + Clone) -> Option<ParamRanges> {
-        let cal = &self.bank.metadata().calibration;
-        ranges_of(
-            &self.params,
-            self.resolution().map(|r| r.cells),
-            &cal.population,
-            (
-                cal.vehicle.wheel_radius_m,
-                cal.vehicle.static_wheel_load_n() / 1e3,
-            ),
-            members,
-        )
-    }
-
     /// Identifies the flat behind one measurement, stage by stage ([`stages`]): the
     /// measurement prepared (sensors, alignment, series on the bank's windows, PIPs); its load
     /// read and the record put on the bank's load; detection ([`detect`]) — when no flat is
@@ -359,7 +189,7 @@ impl Identifier {
         sensors: Option<&[String]>,
         extras: Extras,
     ) -> Result<Identification, IdentifyError> {
-        let mut laps = Laps::start();
+        let mut laps = Stopwatch::start_ms();
         let Prepared {
             used,
             alignment,
@@ -373,7 +203,7 @@ impl Identifier {
         let roughness = self.roughness_use(hf_kn)?;
         let bounds = roughness.bounds(self.bounds);
         let comparison = roughness.comparison();
-        // The load the record shows, and the record put on the bank's load (load::at_bank_load).
+        // The load the record shows, and the record put on the bank's load (input::load::at_bank_load).
         let load = self.load_of(&self.detect(&axes, &series, self.bounds, Comparison::Samples));
         if let Some(l) = load.as_ref().filter(|_| !extras.as_recorded) {
             self.at_bank_load(&axes, &mut series, l);
@@ -417,7 +247,7 @@ impl Identifier {
                 (detection, roughness),
                 load,
                 &axes,
-                laps.timings,
+                laps.laps,
             );
         }
         // Sizing compares as the roughness says: the departure rule with that comparison's test.

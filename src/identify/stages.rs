@@ -10,56 +10,22 @@
 //! 4. [`Identifier::assemble`]: the candidate model set, its ranges per wheel, the baselines
 //!    and entropy curves when asked for, the summary and severity.
 
-use super::buffer::HugeBuffer;
-use super::entropy::{self, bin_into, binned_columns, greedy_joint_entropy, Binned, Selection};
-use super::envelope::{self, EnvelopePoint};
-use super::falsify::{self, falsify, residual_minimisation, Point};
-use super::ranges::{instance, population_ranges};
-use super::result::{
+use super::answer::ranges::{instance, population_ranges};
+use super::answer::result::{
     Alignment, CandidatePoint, EntropyCurve, Falsification, InstanceParams, MeasuredSeries, Method,
     WheelRanges,
 };
-use super::severity::{below_population_words, summarise, SeverityRange};
+use super::answer::severity::{below_population_words, summarise, SeverityRange};
+use super::domain::falsify::{self, falsify, residual_minimisation, Point};
+use super::input::buffer::HugeBuffer;
+use super::input::pip::Candidate;
+use super::select::entropy::{
+    self, bin_into, binned_columns, greedy_joint_entropy, Binned, Selection,
+};
+use super::select::envelope::{self, EnvelopePoint};
 use super::{Detection, Extras, Identification, Identifier, IdentifyError, Measurement};
 use super::{ThresholdCurve, WheelPosition};
-use std::time::Instant;
-
-/// The laps of a staged computation, named as its result names them: in ms for an
-/// identification (`timings_ms`), in s for a diagnosis (`timings_s`).
-pub(crate) struct Laps {
-    clock: Instant,
-    /// Units per second (1000 for ms).
-    per_second: f64,
-    /// (stage, time) in order.
-    pub(crate) timings: Vec<(String, f64)>,
-}
-
-impl Laps {
-    /// The clock started, laps in ms.
-    pub(crate) fn start() -> Laps {
-        Laps::start_in(1e3)
-    }
-
-    /// The clock started, laps in s.
-    pub(crate) fn start_in_seconds() -> Laps {
-        Laps::start_in(1.0)
-    }
-
-    fn start_in(per_second: f64) -> Laps {
-        Laps {
-            clock: Instant::now(),
-            per_second,
-            timings: Vec::new(),
-        }
-    }
-
-    /// The time since the last lap, as `name`.
-    pub(crate) fn lap(&mut self, name: &str) {
-        let t = self.clock.elapsed().as_secs_f64() * self.per_second;
-        self.timings.push((name.to_string(), t));
-        self.clock = Instant::now();
-    }
-}
+use crate::stopwatch::Stopwatch;
 
 /// What the sizing stages read of the prepared measurement.
 pub(super) struct Sizing<'a> {
@@ -70,7 +36,7 @@ pub(super) struct Sizing<'a> {
     /// (measurement sensor index, bank axis index) of the sensors used.
     pub(super) used: &'a [(usize, usize)],
     /// The PIP candidates: (series, sample, PIP order).
-    pub(super) cands: &'a [(usize, usize, usize)],
+    pub(super) cands: &'a [Candidate],
     /// The roughness the pass is judged with.
     pub(super) roughness: &'a super::RoughnessUse,
     /// How its series meet the bank's predictions.
@@ -133,7 +99,7 @@ pub(super) struct Prepared {
     /// The series on the bank's windows.
     pub(super) series: Vec<MeasuredSeries>,
     /// The load the record shows.
-    pub(super) load: Option<super::load::LoadEstimate>,
+    pub(super) load: Option<super::detect::load::LoadEstimate>,
     /// Detection's answer.
     pub(super) detection: Detection,
     /// The detection test of the sizing's comparison, which the departure rule judges with.
@@ -148,7 +114,7 @@ impl Identifier {
         z: &Sizing<'_>,
         series: &[MeasuredSeries],
         buffer: &'b mut HugeBuffer,
-        laps: &mut Laps,
+        laps: &mut Stopwatch,
     ) -> Result<Read<'b>, IdentifyError> {
         let hw = self.settings.envelope_half_width_samples;
         let template: Vec<&[f32]> = z
@@ -166,7 +132,7 @@ impl Identifier {
         let cols: Vec<(usize, usize)> = z
             .cands
             .iter()
-            .map(|&(si, k, _)| (z.used[si].1, k))
+            .map(|c| (z.used[c.series].1, c.sample))
             .chain(
                 centres
                     .iter()
@@ -190,12 +156,12 @@ impl Identifier {
         let measured: Vec<f64> = z
             .cands
             .iter()
-            .map(|&(si, k, _)| series[si].values_kn[k])
+            .map(|c| series[c.series].values_kn[c.sample])
             .collect();
         let flat_free: Vec<f64> = z
             .cands
             .iter()
-            .map(|&(si, k, _)| f64::from(template[si][k]))
+            .map(|c| f64::from(template[c.series][c.sample]))
             .collect();
         Ok(Read {
             predictions,
@@ -216,7 +182,7 @@ impl Identifier {
         z: &Sizing<'_>,
         read: &Read<'_>,
         bin_buffer: &'c mut HugeBuffer,
-        laps: &mut Laps,
+        laps: &mut Stopwatch,
     ) -> Result<Selected<'c>, IdentifyError> {
         use rayon::prelude::*;
         let s = &self.settings;
@@ -286,7 +252,7 @@ impl Identifier {
         selected: &Selected<'_>,
         axes: &[usize],
         detection: &Detection,
-        laps: &mut Laps,
+        laps: &mut Stopwatch,
     ) -> Result<Judged, IdentifyError> {
         let s = &self.settings;
         let hw = s.envelope_half_width_samples;
@@ -401,7 +367,7 @@ impl Identifier {
         selected: Selected<'_>,
         judged: Judged,
         prepared: Prepared,
-        mut laps: Laps,
+        mut laps: Stopwatch,
     ) -> Result<Identification, IdentifyError> {
         let s = &self.settings;
         let meta = self.bank.metadata();
@@ -412,12 +378,12 @@ impl Identifier {
         let candidates: Vec<CandidatePoint> = cands
             .iter()
             .enumerate()
-            .map(|(i, &(si, k, order))| CandidatePoint {
-                series: si,
-                sample: k,
-                time_s: series[si].t0_s + k as f64 / series[si].sample_rate_hz,
+            .map(|(i, c)| CandidatePoint {
+                series: c.series,
+                sample: c.sample,
+                time_s: series[c.series].t0_s + c.sample as f64 / series[c.series].sample_rate_hz,
                 measured_kn: measured[i],
-                pip_order: order,
+                pip_order: c.order,
                 entropy_bits: selected.binned[i].entropy_bits,
                 threshold_low_kn: thresholds[i].0,
                 threshold_high_kn: thresholds[i].1,
@@ -488,7 +454,9 @@ impl Identifier {
                 .map(|(si, ser)| {
                     (
                         ser.sensor.clone(),
-                        (0..cands.len()).filter(|&i| cands[i].0 == si).collect(),
+                        (0..cands.len())
+                            .filter(|&i| cands[i].series == si)
+                            .collect(),
                     )
                 })
                 .collect();
@@ -556,7 +524,7 @@ impl Identifier {
             summary,
             maintenance_hint: hint,
             severity: Some(severity),
-            timings_ms: laps.timings,
+            timings_ms: laps.laps,
             refinement: None,
         })
     }

@@ -7,8 +7,8 @@
 //! measurement source), independent noise per sample (the absolute sources other than the
 //! resolution), and quantisation to the sensor resolution (a resolution of ±r is a step of 2r).
 
-use super::uncertainty::uniform;
-use crate::model::calibration::{IdentificationParams, UncertaintyGroup, UncertaintyKind};
+use super::domain::uncertainty::{draw_sources, resolution_step_kn};
+use crate::model::calibration::{UncertaintyGroup, UncertaintyKind};
 use crate::model::surface::SurfaceNote;
 use crate::model::{
     CheckedCalibration, ContactFilter, Flat, Record, SimError, Simulator, Surfaces, WheelPosition,
@@ -95,35 +95,6 @@ pub struct Synthetic {
     pub csv: String,
     /// The truth.
     pub truth: Truth,
-}
-
-/// One draw of every uncertainty source of `group` and `kind`, summed (the resolution left
-/// out when asked: it is applied as quantisation).
-pub(crate) fn draw_sources(
-    id: &IdentificationParams,
-    group: UncertaintyGroup,
-    kind: UncertaintyKind,
-    skip_resolution: bool,
-    state: &mut u64,
-) -> f64 {
-    id.uncertainty
-        .iter()
-        .filter(|u| {
-            u.group == group
-                && u.kind == kind
-                && !(skip_resolution && u.name.contains("resolution"))
-        })
-        .map(|u| u.min + (u.max - u.min) * uniform(state))
-        .sum()
-}
-
-/// The quantisation step of the sensors (kN): a resolution of ±r is a step of 2r.
-pub(crate) fn resolution_step_kn(id: &IdentificationParams) -> f64 {
-    id.uncertainty
-        .iter()
-        .filter(|u| u.group == UncertaintyGroup::Measurement && u.name.contains("resolution"))
-        .map(|u| u.max - u.min)
-        .sum()
 }
 
 /// Field-like noise instead of the table's independent noise (the clean cases with

@@ -2,7 +2,7 @@
 //! compared with: opened, with the member its speed and load pick.
 
 use super::PassError;
-use crate::identify::family::Members;
+use crate::identify::detect::family::Members;
 use crate::identify::{Identifier, Measurement};
 use crate::model::{Calibration, CheckedCalibration};
 use std::path::{Path, PathBuf};

@@ -67,9 +67,12 @@ pub enum PassError {
         #[source]
         source: Box<IdentifyError>,
     },
-    /// Identification, refinement or a train's checks refused the pass.
+    /// Identification or refinement refused the pass.
     #[error(transparent)]
     Identify(Box<IdentifyError>),
+    /// A train's checks, its identification or its refinement refused the pass.
+    #[error(transparent)]
+    Train(Box<crate::train::TrainError>),
     /// The results database refused a pass.
     #[error("cannot store {what}")]
     Store {
@@ -118,6 +121,12 @@ pub enum PassError {
         #[source]
         source: Box<ReportError>,
     },
+}
+
+impl From<crate::train::TrainError> for PassError {
+    fn from(e: crate::train::TrainError) -> PassError {
+        PassError::Train(Box::new(e))
+    }
 }
 
 impl From<IdentifyError> for PassError {

@@ -3,7 +3,7 @@
 
 use super::{input, store, PassError};
 use crate::history::{Db, PassRecord};
-use crate::identify::family::Members;
+use crate::identify::detect::family::Members;
 use crate::identify::refine::{bank_simulator, refine, RefineSettings};
 use crate::identify::{Extras, Identification, Identifier, Measurement};
 use std::path::Path;
@@ -82,11 +82,9 @@ pub fn identify_file(
     if let Some(simulations) = refine_simulations {
         refine_into(identifier, &mut id, simulations)?;
     }
-    crate::report::identify::write_identification_json(&id, out).map_err(|source| {
-        PassError::Report {
-            dir: out.to_path_buf(),
-            source: Box::new(source),
-        }
+    id.write_json(out).map_err(|source| PassError::Report {
+        dir: out.to_path_buf(),
+        source: Box::new(source.into()),
     })?;
     let stored = match db {
         Some(db) => Some(store_measurement(db, &id, identifier, &m, path)?),

@@ -5,7 +5,7 @@
 use super::input::{read_text, MAX_MEASUREMENT_BYTES, MAX_TRIGGER_BYTES};
 use super::{store, PassError};
 use crate::history::{Db, PassMeta, PassRecord};
-use crate::identify::family::Members;
+use crate::identify::detect::family::Members;
 use crate::identify::refine::RefineSettings;
 use crate::identify::{Identifier, Measurement};
 use crate::train::TrainResult;
@@ -75,7 +75,7 @@ pub fn identify_train(
         picked.push(k);
     }
     let identifiers: Vec<&Identifier> = picked.iter().map(|&k| members.get(k)).collect();
-    let mut result = crate::train::identify_train(&identifiers, &m, &bogies)?;
+    let mut result = crate::train::identify_bogies(&identifiers, &m, &bogies)?;
     if let Some(simulations) = refine_simulations {
         let settings = RefineSettings {
             simulations,

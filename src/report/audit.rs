@@ -4,6 +4,7 @@
 use super::canvas::{
     min_max, msg, render_png, PlotError, FONT, GRID_LIGHT, TAB_BLUE, TAB_GREEN, TAB_ORANGE, TAB_RED,
 };
+use crate::report::canvas::DrawResult;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -66,7 +67,7 @@ pub fn draw_audit(title: &str, panels: &[AuditPanel], path: &Path) -> Result<(),
 fn draw_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
     p: &AuditPanel,
-) -> Result<(), String> {
+) -> DrawResult {
     let t = |k: usize| p.t0_s + k as f64 / p.rate_hz;
     let n = p.stored.len().max(1);
     let values = p

@@ -21,6 +21,11 @@ static FONT_BYTES: &[u8] = include_bytes!(concat!(
 ));
 
 /// Font family used for every text in the figures.
+/// What drawing a figure returns. The error is plotters' message as text: plotters' errors are
+/// generic over the drawing backend (`DrawingAreaErrorKind<B::ErrorType>`), and the only thing
+/// done with one is to print it under the name of the file being drawn (`ReportError`).
+pub(crate) type DrawResult<T = ()> = Result<T, String>;
+
 pub(crate) const FONT: &str = "sans-serif";
 
 /// Size of legend labels (pixels).
@@ -110,7 +115,7 @@ pub(crate) fn text_size<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     text: &str,
     font: &TextStyle,
-) -> Result<(u32, u32), String> {
+) -> DrawResult<(u32, u32)> {
     area.estimate_text_size(text, font).map_err(msg)
 }
 
@@ -119,7 +124,7 @@ pub(crate) fn text_width<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     text: &str,
     font: &TextStyle,
-) -> Result<u32, String> {
+) -> DrawResult<u32> {
     text_size(area, text, font).map(|(w, _)| w)
 }
 
@@ -139,7 +144,7 @@ pub(crate) fn msg(e: impl std::fmt::Display) -> String {
 pub(crate) fn render_png(
     path: &Path,
     size: (u32, u32),
-    draw: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> Result<(), String>,
+    draw: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> DrawResult,
 ) -> Result<(), PlotError> {
     if !ensure_font() {
         return Err(PlotError::Font {
@@ -147,7 +152,7 @@ pub(crate) fn render_png(
         });
     }
     let tmp = crate::atomic::temporary_sibling(path);
-    let result = (|| -> Result<(), String> {
+    let result = (|| -> DrawResult {
         let root = BitMapBackend::new(&tmp, size).into_drawing_area();
         root.fill(&WHITE).map_err(msg)?;
         draw(&root)?;
@@ -256,7 +261,7 @@ pub(crate) fn draw_label<DB: DrawingBackend>(
     style: &TextStyle,
     (dx, dy): (i32, i32),
     (w, h): (u32, u32),
-) -> Result<(), String> {
+) -> DrawResult {
     let style = style.clone().pos(Pos::new(HPos::Left, VPos::Top));
     let elem = EmptyElement::at(at)
         + Rectangle::new(

@@ -6,6 +6,7 @@ use super::canvas::{
     escape_html as esc, min_max, msg, render_png, PlotError, FONT, GRID_LIGHT, TAB_BLUE, TAB_RED,
 };
 use crate::diagnose::{CandidateKind, Diagnosis, Located, SensorGap, Stage};
+use crate::report::canvas::DrawResult;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::fmt::Write as _;
@@ -51,7 +52,7 @@ fn draw_gap_panel(
     g: &SensorGap,
     t0: f64,
     rate: f64,
-) -> Result<(), String> {
+) -> DrawResult {
     let n = g.residual_kn.len().max(2);
     let t = |k: usize| t0 + k as f64 / rate;
     let (lo, hi) = min_max(

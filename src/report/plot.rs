@@ -6,6 +6,7 @@
 //! figure is drawn to a hidden temporary file next to the target and renamed into place,
 //! so a reader never sees a half-written plot.
 
+use crate::report::canvas::DrawResult;
 use std::path::Path;
 
 use plotters::coord::Shift;
@@ -146,7 +147,7 @@ pub fn draw_pad_forces(plot: &PadForcePlot, path: &Path) -> Result<(), PlotError
 }
 
 /// Checks lengths and the time axis; the message says what is wrong.
-fn validate(plot: &PadForcePlot) -> Result<(), String> {
+fn validate(plot: &PadForcePlot) -> DrawResult {
     let n = plot.time_s.len();
     if n == 0 {
         return Err("the time axis is empty".into());
@@ -177,10 +178,7 @@ fn validate(plot: &PadForcePlot) -> Result<(), String> {
 }
 
 /// Draws the whole figure on `root`.
-fn render<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
-    plot: &PadForcePlot,
-) -> Result<(), String> {
+fn render<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, plot: &PadForcePlot) -> DrawResult {
     root.fill(&WHITE).map_err(msg)?;
     let body = root
         .margin(12, 0, 0, 0)
@@ -307,7 +305,7 @@ fn draw_panel<DB: DrawingBackend>(
     panel: &Panel,
     strikes: &[f64],
     legend_width: u32,
-) -> Result<(), String> {
+) -> DrawResult {
     let (w, _) = area.dim_in_pixel();
     let (chart_area, legend_area) = area.split_horizontally(w.saturating_sub(legend_width));
     let (y_min, y_max) = force_range(panel.curves.iter().map(|c| c.values));
@@ -373,7 +371,7 @@ fn draw_panel<DB: DrawingBackend>(
 fn draw_legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     entries: &[LegendEntry],
-) -> Result<(), String> {
+) -> DrawResult {
     if entries.is_empty() {
         return Ok(());
     }

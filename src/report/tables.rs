@@ -7,7 +7,7 @@ use crate::audit::{MeasuredCheck, Resimulation};
 use crate::bank::schema::SensorAxis;
 use crate::bank::StoredInstance;
 use crate::diagnose::{Diagnosis, Stage};
-use crate::identify::result::ParamRanges;
+use crate::identify::answer::result::ParamRanges;
 use crate::identify::synth::Truth;
 use crate::identify::Identification;
 use crate::model::WheelPosition;
@@ -236,7 +236,7 @@ pub fn detection_line(d: &crate::identify::Detection) -> String {
 
 /// Which bank a pass was compared with, and at what speed: `speed: pass 49.2 km/h, compared
 /// with the 50 km/h bank (its time axis scaled by 0.9840)`.
-pub fn speed_line(s: &crate::identify::result::SpeedUse) -> String {
+pub fn speed_line(s: &crate::identify::answer::result::SpeedUse) -> String {
     match s.pass_km_per_h {
         Some(v) if (v - s.bank_km_per_h).abs() > 1e-9 => format!(
             "speed: pass {v} km/h, compared with the {} km/h bank (its time axis scaled by {:.4})",

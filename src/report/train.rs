@@ -100,7 +100,7 @@ pub fn loads_line(r: &TrainResult) -> String {
         .collect();
     format!(
         "loads (kN a wheel, read from the record, {:.0} % interval): {}",
-        crate::identify::load::LOAD_INTERVAL_PROBABILITY * 100.0,
+        crate::identify::detect::load::LOAD_INTERVAL_PROBABILITY * 100.0,
         parts.join(", ")
     )
 }

@@ -10,6 +10,7 @@
 use super::passes::SitePass;
 pub use super::residual::{amplitudes, VOID_T};
 use super::residual::{clearly_better, distinct, evaluate, normal_equations, pass_sse, Evaluation};
+use super::SiteError;
 use crate::bank::schema::{sensor_axes, SensorAxis};
 use crate::model::{Calibration, CheckedCalibration, Effect, Record, Simulator};
 use nalgebra::{DMatrix, DVector};
@@ -38,7 +39,7 @@ const MAX_ITERATIONS: usize = 12;
 const STEP: [f64; 2] = [0.01, 0.05];
 
 /// Evaluates parameter sets on the passes, counting simulations.
-type Evaluator<'a> = dyn Fn(&[Params], &mut usize) -> Result<Vec<Evaluation>, String> + 'a;
+type Evaluator<'a> = dyn Fn(&[Params], &mut usize) -> Result<Vec<Evaluation>, SiteError> + 'a;
 
 /// The parameters: `[support factor, gap at each candidate sleeper (mm)]`: the support factor
 /// scales pad and ballast stiffness together (good wheels pin their series stiffness, not the
@@ -138,18 +139,16 @@ impl TrackFit {
 
     /// The good wheel's series (kN) on every window with parameters `p`, at relative wheel
     /// load `load`.
-    pub fn template(&self, p: &[f64], load: f64) -> Result<Vec<Vec<f64>>, String> {
+    pub fn template(&self, p: &[f64], load: f64) -> Result<Vec<Vec<f64>>, SiteError> {
         let mut doc = self.calibration(p);
         let v = &mut doc.vehicle;
         // ((m_c + m_b)/2 + m_w)·g = load·W.
         v.car_body_mass_kg = 2.0
             * (load * self.wheel_load_n / v.gravity_m_per_s2 - v.wheel_mass_kg)
             - v.bogie_mass_kg;
-        let cal = doc.check().map_err(|e| e.to_string())?;
-        let sim = Simulator::new(&cal).map_err(|e| e.to_string())?;
-        let resp = sim
-            .run(None, Record::default())
-            .map_err(|e| e.to_string())?;
+        let cal = doc.check()?;
+        let sim = Simulator::new(&cal)?;
+        let resp = sim.run(None, Record::default())?;
         Ok(self
             .axes
             .iter()
@@ -164,7 +163,7 @@ impl TrackFit {
     }
 
     /// The good wheel with parameters `p` at each load bin of `bins` (in parallel).
-    fn templates_at(&self, p: &[f64], bins: &[i64]) -> Result<Vec<Vec<Vec<f64>>>, String> {
+    fn templates_at(&self, p: &[f64], bins: &[i64]) -> Result<Vec<Vec<Vec<f64>>>, SiteError> {
         bins.par_iter()
             .map(|&b| self.template(p, b as f64 * LOAD_BIN))
             .collect()
@@ -193,9 +192,9 @@ impl TrackFit {
         start: &[f64],
         bootstrap: usize,
         seed: u64,
-    ) -> Result<Fitted, String> {
+    ) -> Result<Fitted, SiteError> {
         if passes.is_empty() {
-            return Err("no pass to fit".into());
+            return Err(SiteError::NoPass);
         }
         let mut sims = 0usize;
         // Voids the start states stay candidates fitted from their gap.
@@ -297,7 +296,7 @@ impl TrackFit {
         mut p: Params,
         free: &[usize],
         sims: &mut usize,
-    ) -> Result<(Params, Evaluation, Vec<i64>, usize, f64), String> {
+    ) -> Result<(Params, Evaluation, Vec<i64>, usize, f64), SiteError> {
         let mut first = None;
         let mut iterations = 0;
         let mut bins = self.load_bins(&p, passes, sims)?;
@@ -325,7 +324,7 @@ impl TrackFit {
         p: &[f64],
         passes: &[SitePass],
         sims: &mut usize,
-    ) -> Result<Vec<i64>, String> {
+    ) -> Result<Vec<i64>, SiteError> {
         let nominal = self.template(p, 1.0)?;
         let guess: Vec<i64> = passes
             .iter()
@@ -363,7 +362,7 @@ impl TrackFit {
         distinct: &[i64],
         ps: &[Params],
         sims: &mut usize,
-    ) -> Result<Vec<Evaluation>, String> {
+    ) -> Result<Vec<Evaluation>, SiteError> {
         let jobs: Vec<(usize, i64)> = (0..ps.len())
             .flat_map(|k| distinct.iter().map(move |&b| (k, b)))
             .collect();
@@ -393,7 +392,7 @@ impl TrackFit {
         mut p: Params,
         free: &[usize],
         sims: &mut usize,
-    ) -> Result<(Params, Evaluation, usize, f64), String> {
+    ) -> Result<(Params, Evaluation, usize, f64), SiteError> {
         let eval =
             |ps: &[Params], sims: &mut usize| self.evaluate_all(passes, bins, distinct, ps, sims);
         let mut at = eval(std::slice::from_ref(&p), sims)?.remove(0);
@@ -446,7 +445,7 @@ impl TrackFit {
         at: &Evaluation,
         eval: &Evaluator<'_>,
         sims: &mut usize,
-    ) -> Result<Vec<Vec<f64>>, String> {
+    ) -> Result<Vec<Vec<f64>>, SiteError> {
         let steps: Vec<f64> = free
             .iter()
             .map(|&k| {
@@ -486,7 +485,11 @@ impl TrackFit {
 impl TrackFit {
     /// Per pass, per sensor, the amplitude of the good wheel with parameters `p` at the pass's
     /// load bin (the passes held back from the fit are read so).
-    pub fn amplitudes_at(&self, p: &[f64], passes: &[SitePass]) -> Result<Vec<Vec<f64>>, String> {
+    pub fn amplitudes_at(
+        &self,
+        p: &[f64],
+        passes: &[SitePass],
+    ) -> Result<Vec<Vec<f64>>, SiteError> {
         Ok(self
             .at_bins(p, passes)?
             .into_iter()
@@ -500,7 +503,7 @@ impl TrackFit {
     /// anything the good wheel lacks, the second with what is concentrated in a few samples
     /// (a flat's impacts) rather than spread over the pass (a rough tread, a track not yet
     /// fitted).
-    pub fn misfits(&self, p: &[f64], passes: &[SitePass]) -> Result<Vec<[f64; 2]>, String> {
+    pub fn misfits(&self, p: &[f64], passes: &[SitePass]) -> Result<Vec<[f64; 2]>, SiteError> {
         Ok(self
             .at_bins(p, passes)?
             .into_iter()
@@ -510,7 +513,7 @@ impl TrackFit {
 
     /// Per pass at its load bin: the amplitudes, and `[sum of squares left over its own,
     /// largest residual over the residual's RMS]`.
-    fn at_bins(&self, p: &[f64], passes: &[SitePass]) -> Result<Vec<AtBin>, String> {
+    fn at_bins(&self, p: &[f64], passes: &[SitePass]) -> Result<Vec<AtBin>, SiteError> {
         let bins = self.load_bins(p, passes, &mut 0)?;
         let distinct = distinct(&bins);
         let t = self.templates_at(p, &distinct)?;

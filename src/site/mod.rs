@@ -5,9 +5,11 @@
 //! compares a night's calibration with the bank's ([`drift`]).
 
 pub mod drift;
+mod error;
 pub mod fit;
 pub mod passes;
 pub mod reference;
+pub use error::SiteError;
 mod residual;
 pub mod screen;
 pub mod table;
@@ -143,7 +145,7 @@ pub fn calibrate(
     cal: &CheckedCalibration,
     passes: &[SitePass],
     opts: &Options,
-) -> Result<SiteCalibration, String> {
+) -> Result<SiteCalibration, SiteError> {
     let (c, misfits) = calibrate_once(cal, passes, opts)?;
     let out = screen::outliers(&misfits);
     if out.is_empty() {
@@ -174,7 +176,7 @@ fn calibrate_once(
     cal: &CheckedCalibration,
     passes: &[SitePass],
     opts: &Options,
-) -> Result<(SiteCalibration, Vec<[f64; 2]>), String> {
+) -> Result<(SiteCalibration, Vec<[f64; 2]>), SiteError> {
     let every = opts.hold_back_every.max(2);
     let is_held = |i: usize| i % every == every - 1;
     let pick = |held: bool| -> Vec<SitePass> {
@@ -188,10 +190,12 @@ fn calibrate_once(
     let (held, fitted) = (pick(true), pick(false));
     if fitted.len() < MIN_PASSES || held.is_empty() {
         let need = (MIN_PASSES * every).div_ceil(every - 1);
-        return Err(format!(
-            "{} usable passes: calibration needs at least {need} ({MIN_PASSES} fitted, every {every}th held back to measure the residual on)",
-            passes.len()
-        ));
+        return Err(SiteError::TooFewPasses {
+            passes: passes.len(),
+            need,
+            min: MIN_PASSES,
+            every,
+        });
     }
     let (track, start) = TrackFit::new(cal);
     let f = track.fit(&fitted, &start, opts.bootstrap, opts.seed)?;
@@ -273,7 +277,7 @@ fn calibrate_once(
             &used,
             &references,
             &gains,
-            crate::identify::load::mean_level_factor(&id),
+            crate::identify::detect::load::mean_level_factor(&id),
             (opts.bootstrap, opts.seed),
         )?)
     } else {
@@ -357,7 +361,7 @@ fn relative_gains(
     track: &TrackFit,
     params: &[f64],
     seed: u64,
-) -> Result<(Vec<Gain>, f64), String> {
+) -> Result<(Vec<Gain>, f64), SiteError> {
     let peaks: Vec<f64> = track
         .template(params, 1.0)?
         .iter()

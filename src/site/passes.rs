@@ -109,6 +109,7 @@ pub fn record_now(stored: &Path) -> PathBuf {
 }
 
 /// One pass on `axes`, or why it cannot be used.
+// Err(String): why the pass is skipped, listed beside its path in the report (never fatal).
 pub fn read_pass(
     path: &Path,
     cal: &CheckedCalibration,
@@ -123,6 +124,7 @@ pub fn read_pass(
 impl SitePass {
     /// The pass `m` on `axes` (its path, its reference load if it gives one), or why it
     /// cannot be used.
+    // Err(String): why the pass is skipped, listed beside its path in the report (never fatal).
     pub fn of(
         m: &Measurement,
         cal: &CheckedCalibration,
@@ -137,6 +139,7 @@ impl SitePass {
 }
 
 /// The series of `m` on `axes` (every sensor of the calibration must be in the record).
+// Err(String): why the pass is skipped, listed beside its path in the report (never fatal).
 pub fn on_windows(
     m: &Measurement,
     cal: &CheckedCalibration,

@@ -11,6 +11,7 @@
 use super::fit::TrackFit;
 use super::passes::SitePass;
 use super::residual::amplitudes;
+use super::SiteError;
 use super::{table, Gain, Interval, GAIN_ALLOWANCE};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -46,7 +47,7 @@ pub(super) fn absolute_gains(
     relative: &[Gain],
     table_level: f64,
     (draws, seed): (usize, u64),
-) -> Result<Reference, String> {
+) -> Result<Reference, SiteError> {
     // Per pass, the mean over the pinned sensors of the log amplitude over the good wheel at
     // the pass's own load, less the log relative gain.
     let logs: Vec<f64> = passes
@@ -62,7 +63,7 @@ pub(super) fn absolute_gains(
                 });
             Ok(sum / k.max(1) as f64)
         })
-        .collect::<Result<_, String>>()?;
+        .collect::<Result<_, SiteError>>()?;
     let n = logs.len();
     let level = |idx: &mut dyn Iterator<Item = usize>| -> f64 {
         let (sum, k) = idx.fold((0.0, 0usize), |(s, k), i| (s + logs[i], k + 1));

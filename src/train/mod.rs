@@ -18,16 +18,19 @@
 use crate::bank::Bank;
 use crate::identify::refine::{bank_simulator, refine, RefineSettings};
 use crate::identify::{
-    Detection, Extras, FlatVerdict, Identification, Identifier, IdentifyError, Measurement,
-    Severity, SeverityRange,
+    Detection, Extras, FlatVerdict, Identification, Identifier, Measurement, Severity,
+    SeverityRange,
 };
 use crate::model::{Simulator, WheelPosition};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::time::Instant;
 
+mod error;
 mod synth;
 mod triggers;
+
+pub use error::TrainError;
 
 pub use synth::{
     default_flats, synthesize_train, SyntheticTrain, TrainFlat, TrainSpec, TrainTruth,
@@ -35,7 +38,7 @@ pub use synth::{
 pub use triggers::{bogies_from_triggers, read_triggers, Bogie};
 
 /// Whether a bank's population covers a train: both wheels, X_p over a whole revolution.
-pub fn check_coverage(bank: &Bank, dir: &Path) -> Result<(), IdentifyError> {
+pub fn check_coverage(bank: &Bank, dir: &Path) -> Result<(), TrainError> {
     let cal = &bank.metadata().calibration;
     let p = &cal.population;
     let wheels = p
@@ -49,16 +52,16 @@ pub fn check_coverage(bank: &Bank, dir: &Path) -> Result<(), IdentifyError> {
     if both && span >= revolution - 1e-3 {
         return Ok(());
     }
-    Err(IdentifyError::Invalid(format!(
-        "bank {} does not cover a train: its population has the flat on the {} wheel{} and X_p over {span:.2} m of the {revolution:.2} m wheel revolution. A flat can be on either wheel and strike anywhere along a revolution: build a bank of the site profile, the default (`wheelflat bank generate --out train-bank`; or `wheelflat calibration --out site.toml` to start a calibration from)",
-        dir.display(),
-        wheels
+    Err(TrainError::NotCovering {
+        dir: dir.to_path_buf(),
+        wheels: wheels
             .iter()
             .map(|w| w.name())
             .collect::<Vec<_>>()
             .join(" and "),
-        if wheels.len() > 1 { "s" } else { "" },
-    )))
+        span_m: span,
+        revolution_m: revolution,
+    })
 }
 
 /// One wheel's line of the train table.
@@ -114,7 +117,7 @@ pub struct BogieResult {
     pub identification: Option<Identification>,
     /// The wheel load its part of the record shows, and the bank's it was compared at.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub load: Option<crate::identify::load::LoadEstimate>,
+    pub load: Option<crate::identify::detect::load::LoadEstimate>,
     /// Milliseconds spent on the bogie.
     pub ms: f64,
     /// The bogie's id from the consist, when given.
@@ -143,18 +146,18 @@ pub struct TrainResult {
 
 /// Identifies every bogie of a train recording, bogie `b` against `identifiers[b]` (the bank,
 /// or the family member at the bogie's speed; the recording is put on its time axis at the
-/// bogie's speed).
-pub fn identify_train(
+/// bogie's speed). A whole train pass from its files (the members picked, the table written,
+/// the bogies stored) is [`crate::pass::train::identify_train`].
+pub fn identify_bogies(
     identifiers: &[&Identifier],
     recording: &Measurement,
     bogies: &[Bogie],
-) -> Result<TrainResult, IdentifyError> {
+) -> Result<TrainResult, TrainError> {
     if identifiers.len() != bogies.len() || bogies.is_empty() {
-        return Err(IdentifyError::Invalid(format!(
-            "{} bogies and {} banks for them",
-            bogies.len(),
-            identifiers.len()
-        )));
+        return Err(TrainError::BanksPerBogie {
+            bogies: bogies.len(),
+            banks: identifiers.len(),
+        });
     }
     let identifier = identifiers[0];
     let clock = Instant::now();
@@ -299,12 +302,12 @@ pub fn identify_train(
 /// bogie's identification restricted to the instances with the flat on that wheel is refined
 /// with its bank's calibration, the row gets the refined L0 range beside the bank-only one and
 /// its severity from the refined upper bound. `identifiers[b]` is bogie b's bank, as given to
-/// [`identify_train`].
+/// [`identify_bogies`].
 pub fn refine_wheels(
     result: &mut TrainResult,
     identifiers: &[&Identifier],
     settings: RefineSettings,
-) -> Result<(), IdentifyError> {
+) -> Result<(), TrainError> {
     settings.check()?;
     let started = Instant::now();
     let mut sims: Vec<(String, Simulator)> = Vec::new();

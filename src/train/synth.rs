@@ -1,7 +1,8 @@
 //! Synthetic trains: a recording of many bogies, flats hidden on chosen wheels, with its
 //! trigger file and truth (`wheelflat synth --train`).
 
-use crate::identify::synth::{draw_sources, resolution_step_kn, MARGIN_SAMPLES};
+use crate::identify::domain::uncertainty::{draw_sources, resolution_step_kn};
+use crate::identify::synth::MARGIN_SAMPLES;
 use crate::model::calibration::{UncertaintyGroup, UncertaintyKind};
 use crate::model::surface::{SurfaceNote, SurfaceSpec};
 use crate::model::{CheckedCalibration, Flat, Record, SimError, Simulator, WheelPosition};

@@ -127,7 +127,7 @@ fn a_hidden_voided_sleeper_is_located_at_its_sleeper() {
 #[test]
 #[ignore = "acceptance: fifteen diagnoses with local banks, ~7 min on 2 cores"]
 fn the_suite_subset_names_hidden_effects_and_stays_quiet_otherwise() {
-    use wheelflat_studies::suite::{self, Hidden};
+    use wheelflat_testkit::suite::{self, Hidden};
     let (dir, cal) = small_bank();
     let id = Identifier::new(Bank::open(&dir).unwrap(), cal.identification.clone()).unwrap();
     let mut seen_kinds: Vec<std::mem::Discriminant<Effect>> = Vec::new();
@@ -426,7 +426,7 @@ fn a_speed_line_beyond_the_bank_is_diagnosed_from_the_record_and_identify_still_
 fn noise_above_the_table_is_named_with_its_sigma_and_rho() {
     let (dir, cal) = small_bank();
     let id = Identifier::new(Bank::open(&dir).unwrap(), cal.identification.clone()).unwrap();
-    let converged = wheelflat_studies::coverage::converged_model(&cal);
+    let converged = wheelflat_testkit::coverage::converged_model(&cal);
     let sigma_table = diagnose::fit::NoiseModel::from_settings(&cal.identification).sigma_kn;
     let passes = [
         (60.0, 0.45, 0.05, 12.35, 1.6, 0.7),

@@ -14,7 +14,7 @@ use wheelflat::identify::Members;
 use wheelflat::identify::{Extras, Measurement};
 use wheelflat::model::CheckedCalibration;
 use wheelflat::train::{self, TrainFlat, TrainSpec};
-use wheelflat_studies::coverage::{self, judge, severity_limits};
+use wheelflat_testkit::coverage::{self, judge, severity_limits};
 
 /// The narrow (CI-sized identification) calibration as a family at 48 and 50 km/h, 2,000
 /// instances a member, built once per test binary.
@@ -340,7 +340,7 @@ fn each_bogie_of_an_accelerating_train_is_compared_with_the_member_at_its_speed(
         "48 km/h for the first two, 50 for the others"
     );
     let ids: Vec<_> = picked.iter().map(|&k| members.get(k)).collect();
-    let r = train::identify_train(&ids, &m, &bogies).unwrap();
+    let r = train::identify_bogies(&ids, &m, &bogies).unwrap();
     println!("{}", wheelflat::report::train::speeds_line(&r));
     print!("{}", wheelflat::report::train::table_text(&r));
     assert_eq!(

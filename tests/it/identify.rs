@@ -7,7 +7,7 @@ use wheelflat::bank::Bank;
 use wheelflat::identify::result::AlignmentMethod;
 use wheelflat::identify::{synth, Extras, Identifier, IdentifyError, Measurement};
 use wheelflat::model::Flat;
-use wheelflat_studies::coverage;
+use wheelflat_testkit::coverage;
 
 /// A CI-sized bank, 2,000 instances of the narrow profile.
 fn small_bank() -> &'static CachedBank {
@@ -127,7 +127,7 @@ fn cross_correlation_finds_the_same_shift_as_the_laser_trigger() {
 #[test]
 fn upper_l0_bound_comes_from_the_measurement_not_the_population_edge() {
     use wheelflat::bank::neighbours::neighbour_graph_weighted;
-    use wheelflat_studies::coverage::{judge, severity_limits};
+    use wheelflat_testkit::coverage::{judge, severity_limits};
     let (dir, cal) = small_bank();
     let (insp, urg, top) = severity_limits(cal);
     let mut settings = cal.identification.clone();

@@ -13,7 +13,7 @@ use wheelflat::identify::synth::{synthesize_pass, FieldNoise};
 use wheelflat::identify::Members;
 use wheelflat::identify::{Extras, Measurement};
 use wheelflat::model::CheckedCalibration;
-use wheelflat_studies::coverage::{self, judge, severity_limits};
+use wheelflat_testkit::coverage::{self, judge, severity_limits};
 
 /// Car-body masses of the family: 0.6 and 0.9 × the calibration's 7,500 kg (34.8 and
 /// 45.9 kN a wheel).

@@ -20,6 +20,7 @@ mod fuzz;
 mod history;
 mod identify;
 mod kill;
+mod landing;
 mod layout;
 mod load;
 mod nightly;

@@ -8,7 +8,7 @@ use wheelflat::bank::Bank;
 use wheelflat::identify::refine::{refine, RefineSettings};
 use wheelflat::identify::{Extras, Identifier};
 use wheelflat::model::Simulator;
-use wheelflat_studies::coverage::{self, judge, severity_limits};
+use wheelflat_testkit::coverage::{self, judge, severity_limits};
 
 /// A CI-sized bank, 2,000 instances of the narrow profile.
 fn small_bank() -> &'static CachedBank {

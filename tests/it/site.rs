@@ -6,7 +6,7 @@ use crate::common::{cached_bank, CachedBank};
 use wheelflat::bank::Bank;
 use wheelflat::identify::{Extras, Identifier};
 use wheelflat::model::{Calibration, Flat, Record, Simulator, WheelPosition};
-use wheelflat_studies::coverage::{self, holds_truth};
+use wheelflat_testkit::coverage::{self, holds_truth};
 
 /// The default calibration's population (both wheels, X_p over one revolution, folded) with
 /// the narrow profile's flat sizes and 600-sample windows: CI-sized.

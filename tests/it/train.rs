@@ -40,7 +40,7 @@ fn train_rows(
     let times = train::read_triggers(Path::new("t.csv"), &syn.triggers_csv).unwrap();
     assert_eq!(times.len(), 24);
     let bogies = train::bogies_from_triggers(cal, Path::new("t.csv"), &times).unwrap();
-    let r = train::identify_train(&vec![&id; bogies.len()], &m, &bogies).unwrap();
+    let r = train::identify_bogies(&vec![&id; bogies.len()], &m, &bogies).unwrap();
     print!("{}", wheelflat::report::train::table_text(&r));
     assert_eq!(r.wheels.len(), 24);
     (r, cal)

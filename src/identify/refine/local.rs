@@ -3,9 +3,9 @@
 
 use super::Member;
 use crate::bank::neighbours::{nearest_weighted, SENSITIVITY_PER_MM};
-use crate::identify::cells::{Cells, NEIGHBOURS};
-use crate::identify::result::ParamRanges;
-use crate::identify::uncertainty::uniform;
+use crate::identify::answer::result::ParamRanges;
+use crate::identify::domain::cells::{Cells, NEIGHBOURS};
+use crate::identify::domain::uncertainty::uniform;
 use crate::model::calibration::PopulationParams;
 use crate::model::{Flat, WheelPosition};
 

@@ -8,7 +8,7 @@
 //! surviving cells; refinement samples those cells more densely, in rounds:
 //!
 //! 1. the seeds are the bank's survivors, each with its cell (half-way to its farthest
-//!    neighbour in the stretched metric, [`super::cells`]);
+//!    neighbour in the stretched metric, [`super::domain::cells`]);
 //! 2. each round simulates its share of the budget uniformly inside the seeds' cells (the
 //!    flat on the seed's wheel; L, d, c, X_p clamped to the population, c < d/2), the seeds
 //!    whose cells reach deepest or shallowest in d four times as often as the others (the L0
@@ -35,9 +35,9 @@
 mod local;
 mod points;
 
-use super::falsify::{falsify, largest_step, Resolution};
-use super::result::Identification;
-pub use super::result::{RefineRound, Refinement};
+use super::answer::result::Identification;
+pub use super::answer::result::{RefineRound, Refinement};
+use super::domain::falsify::{falsify, largest_step, Resolution};
 use super::{Identifier, IdentifyError};
 use crate::model::{Simulator, WheelPosition};
 use local::{local_cells, ranges_of, sample_in_cells};
@@ -46,6 +46,8 @@ use points::{simulate_at, Comparison};
 /// The most simulations one refinement may ask for (a resource bound: 20,000 take about
 /// 40 s on 2 cores).
 pub const MAX_SIMULATIONS: usize = 20_000;
+/// [`MAX_SIMULATIONS`] as a range in words.
+const SIMULATIONS_RANGE: &str = "1–20000";
 
 /// How much refinement to do.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -81,30 +83,35 @@ impl RefineSettings {
     /// Checks the ranges: a refusal names the setting and its value.
     pub fn check(&self) -> Result<(), IdentifyError> {
         if !(1..=MAX_SIMULATIONS).contains(&self.simulations) {
-            return Err(IdentifyError::Invalid(format!(
-                "refine simulations = {}: must be 1–{MAX_SIMULATIONS}",
-                self.simulations
-            )));
+            return Err(IdentifyError::Setting {
+                setting: "simulations",
+                value: self.simulations.to_string(),
+                range: SIMULATIONS_RANGE,
+            });
         }
         if let Some(k) = self
             .kappa
             .filter(|k| !(k.is_finite() && (0.0..=10.0).contains(k)))
         {
-            return Err(IdentifyError::Invalid(format!(
-                "refine kappa = {k}: must be 0–10"
-            )));
+            return Err(IdentifyError::Setting {
+                setting: "kappa",
+                value: k.to_string(),
+                range: "0–10",
+            });
         }
         if !(1..=16).contains(&self.ends_weight) {
-            return Err(IdentifyError::Invalid(format!(
-                "refine ends weight = {}: must be 1–16",
-                self.ends_weight
-            )));
+            return Err(IdentifyError::Setting {
+                setting: "ends weight",
+                value: self.ends_weight.to_string(),
+                range: "1–16",
+            });
         }
         if !(1..=8).contains(&self.rounds) {
-            return Err(IdentifyError::Invalid(format!(
-                "refine rounds = {}: must be 1–8",
-                self.rounds
-            )));
+            return Err(IdentifyError::Setting {
+                setting: "rounds",
+                value: self.rounds.to_string(),
+                range: "1–8",
+            });
         }
         Ok(())
     }
@@ -120,7 +127,7 @@ pub(super) struct Member {
     pub(super) half: [f64; 4],
     /// Predictions at the comparison points, in the order of [`Comparison::points`].
     pub(super) g: Vec<f32>,
-    /// Its steps between adjacent samples at the points ([`crate::identify::falsify::Discretisation`]).
+    /// Its steps between adjacent samples at the points ([`crate::identify::domain::falsify::Discretisation`]).
     pub(super) steps: Vec<f32>,
     /// Its discretisation share ([`Identifier::discretisation_share`]).
     pub(super) share: f32,
@@ -134,11 +141,9 @@ pub fn bank_simulator(identifier: &Identifier) -> Result<Simulator, IdentifyErro
         .check()
         .map_err(|e| e.to_string())
         .and_then(|c| Simulator::new(&c).map_err(|e| e.to_string()))
-        .map_err(|e| {
-            IdentifyError::Invalid(format!(
-                "bank {}: its stored calibration: {e}",
-                bank.bank_id
-            ))
+        .map_err(|reason| IdentifyError::StoredCalibration {
+            bank_id: bank.bank_id.clone(),
+            reason,
         })
 }
 

@@ -2,8 +2,8 @@
 //! flat's values there.
 
 use crate::bank::schema::SensorAxis;
-use crate::identify::falsify::{largest_step, Discretisation, Point};
-use crate::identify::result::Identification;
+use crate::identify::answer::result::Identification;
+use crate::identify::domain::falsify::{largest_step, Discretisation, Point};
 use crate::identify::{Identifier, IdentifyError, ThresholdCurve};
 use crate::model::{batch_key, Flat, Record, Simulator, WheelPosition, LANES};
 use rayon::prelude::*;
@@ -77,7 +77,7 @@ impl Comparison {
                 axis_of(x.series),
                 x.sample - x.half_width,
                 x.sample + x.half_width,
-                if x.kind == crate::identify::envelope::Extreme::Max {
+                if x.kind == crate::identify::select::envelope::Extreme::Max {
                     Read::Max
                 } else {
                     Read::Min
@@ -121,7 +121,7 @@ impl Comparison {
 
     /// The samples `(first, last)` a point's discretisation step spans on a series whose last
     /// sample is `last`: a sample point's reaches one sample either side, a window's stays
-    /// inside it (as identification reads the bank, [`crate::identify::falsify::steps`]).
+    /// inside it (as identification reads the bank, [`crate::identify::domain::falsify::steps`]).
     pub(super) fn step_span(at: At, last: usize) -> (usize, usize) {
         match at.3 {
             Read::Sample => (at.1.saturating_sub(1), (at.2 + 1).min(last)),
@@ -166,11 +166,7 @@ pub(super) fn simulate_at(
                     .iter()
                     .zip(results)
                     .map(|(&k, r)| {
-                        let resp = r.map_err(|e| {
-                            IdentifyError::Invalid(format!(
-                                "refinement: simulating a flat failed: {e}"
-                            ))
-                        })?;
+                        let resp = r.map_err(IdentifyError::Simulation)?;
                         let mut g = Vec::with_capacity(cmp.at.len());
                         let mut steps = Vec::with_capacity(cmp.at.len());
                         // Each axis' window as the identification compared it.

@@ -25,16 +25,19 @@ pub struct MaintenanceParams {
 
 impl Default for MaintenanceParams {
     fn default() -> MaintenanceParams {
-        let id = IdentificationParams::default();
-        MaintenanceParams {
-            rule: id.maintenance_rule,
-            inspect_l0_mm: id.inspect_l0_mm,
-            urgent_l0_mm: id.urgent_l0_mm,
-            inspect_dynamic_ratio: id.inspect_dynamic_ratio,
-            urgent_dynamic_ratio: id.urgent_dynamic_ratio,
-        }
+        MaintenanceParams::of(&IdentificationParams::default())
     }
 }
+
+/// The keys of `[identification]` that `[maintenance]` replaces (read still, as legacy keys;
+/// never written by [`Calibration::to_operator_toml_string`]).
+pub(super) const LEGACY_IDENTIFICATION_KEYS: [&str; 5] = [
+    "maintenance_rule",
+    "inspect_l0_mm",
+    "urgent_l0_mm",
+    "inspect_dynamic_ratio",
+    "urgent_dynamic_ratio",
+];
 
 impl MaintenanceParams {
     /// Both limits positive, the inspection limit below the urgent one (each rule's).
@@ -68,6 +71,18 @@ impl MaintenanceParams {
         Ok(())
     }
 
+    /// The limits the settings hold now (the legacy `[identification]` keys, or a
+    /// `[maintenance]` already applied to them).
+    pub fn of(id: &IdentificationParams) -> MaintenanceParams {
+        MaintenanceParams {
+            rule: id.maintenance_rule,
+            inspect_l0_mm: id.inspect_l0_mm,
+            urgent_l0_mm: id.urgent_l0_mm,
+            inspect_dynamic_ratio: id.inspect_dynamic_ratio,
+            urgent_dynamic_ratio: id.urgent_dynamic_ratio,
+        }
+    }
+
     /// The limits into the settings the rule reads.
     pub(super) fn apply(&self, id: &mut IdentificationParams) {
         id.maintenance_rule = self.rule;
@@ -75,5 +90,44 @@ impl MaintenanceParams {
         id.urgent_l0_mm = self.urgent_l0_mm;
         id.inspect_dynamic_ratio = self.inspect_dynamic_ratio;
         id.urgent_dynamic_ratio = self.urgent_dynamic_ratio;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{MaintenanceParams, LEGACY_IDENTIFICATION_KEYS};
+    use crate::model::Calibration;
+
+    #[test]
+    fn the_operator_form_states_the_limits_in_maintenance_and_reads_back_the_same() {
+        // Limits stated the legacy way, under [identification].
+        let mut c = Calibration::default();
+        c.identification.urgent_l0_mm = 50.0;
+        let text = c.to_operator_toml_string();
+        let id = text.split("[identification]").nth(1).unwrap();
+        let id = id.split("\n[").next().unwrap();
+        for key in LEGACY_IDENTIFICATION_KEYS {
+            assert!(
+                !id.contains(&format!("\n{key} =")),
+                "{key} left in [identification]"
+            );
+        }
+        let back = Calibration::from_toml_str(&text).unwrap();
+        let urgent = back.maintenance.as_ref().unwrap().urgent_l0_mm;
+        assert!((urgent - 50.0).abs() < 1e-12, "{urgent}");
+        // The same settings once checked (the rule reads them from the settings).
+        let (a, b) = (c.check().unwrap(), back.check().unwrap());
+        assert_eq!(a.identification, b.identification);
+        assert_eq!(a.model_toml_string(), b.model_toml_string());
+        // A stated [maintenance] wins over the legacy keys and is written as stated.
+        let mut d = Calibration::default();
+        d.identification.urgent_l0_mm = 50.0;
+        d.maintenance = Some(MaintenanceParams {
+            urgent_l0_mm: 45.0,
+            ..MaintenanceParams::default()
+        });
+        let back = Calibration::from_toml_str(&d.to_operator_toml_string()).unwrap();
+        let urgent = back.check().unwrap().identification.urgent_l0_mm;
+        assert!((urgent - 45.0).abs() < 1e-12, "{urgent}");
     }
 }

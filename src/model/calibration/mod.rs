@@ -14,6 +14,7 @@ mod fold;
 mod maintenance;
 mod mesh;
 mod roughness;
+mod text;
 
 pub use super::effect::Effect;
 pub use super::wheel::WheelPosition;
@@ -539,37 +540,6 @@ impl CheckedCalibration {
             .map(|i| self.window_start_sample(i) + self.output.window_samples)
             .max()
             .unwrap_or(0)
-    }
-}
-
-impl Calibration {
-    /// Parses a TOML document (no checking beyond syntax and key names).
-    pub fn from_toml_str(text: &str) -> Result<Calibration, CalibrationError> {
-        Ok(toml::from_str(text)?)
-    }
-
-    /// The model part of the document (everything but `[identification]` and
-    /// `[maintenance]`) as canonical TOML: what determines simulated values, and so a bank's
-    /// identity.
-    pub fn model_toml_string(&self) -> String {
-        // The `[identification]` and `[maintenance]` tables are left out altogether, so that
-        // neither their values nor their defaults (which change between versions) enter a
-        // bank's identity.
-        let mut model = toml::Table::try_from(self).expect("calibration always serialises");
-        model.remove("identification");
-        model.remove("maintenance");
-        toml::to_string_pretty(&model).expect("a TOML table always serialises")
-    }
-
-    /// The document as TOML, with a header comment.
-    pub fn to_toml_string(&self) -> String {
-        let body = toml::to_string_pretty(self).expect("calibration always serialises");
-        format!(
-            "# wheelflat calibration: train-track model, sensors, sampling, integration and\n\
-             # population ranges. Units are in the key names (SI, except speed in km/h and\n\
-             # flat sizes in mm). Defaults follow docs/model.md; docs/calibration.md explains each key.\n\
-             # contact.hertz_constant_n_per_m1_5, when absent, is computed from the wheel radius.\n\n{body}"
-        )
     }
 }
 

@@ -169,6 +169,7 @@ pub fn parse_trace(file: &str, text: &str) -> Result<TraceFile, TraceError> {
 }
 
 /// `# key = value` comments wheelflat understands; others are skipped.
+// Err(String): the reason of the caller's `SurfaceError` (file and line).
 fn read_comment(
     comment: &str,
     wheel: &mut Option<WheelPosition>,
@@ -244,6 +245,7 @@ fn number(cell: &str, sep: Separator) -> Option<f64> {
 }
 
 /// The units a header line names (position, deviation).
+// Err(String): the reason of the caller's `SurfaceError` (file and line).
 fn header_units(position: &str, deviation: &str) -> Result<Units, String> {
     let p = position.to_lowercase();
     let d = deviation.to_lowercase();

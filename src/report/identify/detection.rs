@@ -2,6 +2,7 @@
 //! `y − a·g`, against the good wheel's bound `±b` at every sample, the sample nearest the bound
 //! (or farthest past it) marked. A good wheel stays inside the band; a flat's strikes leave it.
 
+use crate::report::canvas::DrawResult;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
@@ -9,8 +10,8 @@ use super::{
     centred_note, chart_builder, draw_mesh, frame, Entry, Swatch, BAND_COLOUR, CAPTION_SIZE,
     EIP_COLOUR, MEASURED_COLOUR,
 };
+use crate::identify::answer::result::{Identification, MeasuredSeries};
 use crate::identify::detect::{Detection, SensorTest};
-use crate::identify::result::{Identification, MeasuredSeries};
 use crate::report::canvas::{finite_runs, min_max, msg, pad_range, FONT};
 
 /// Whether `id` carries what the figure draws: a detection with each sensor's flat-free
@@ -24,7 +25,7 @@ pub(super) fn is_available(id: &Identification) -> bool {
 pub(super) fn render_detection<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     id: &Identification,
-) -> Result<(), String> {
+) -> DrawResult {
     let entries = vec![
         Entry::new(
             "residual after the sensor's gain: measured − gain × good-wheel prediction",
@@ -60,7 +61,7 @@ fn sensor_panel<DB: DrawingBackend>(
     d: &Detection,
     t: &SensorTest,
     s: &MeasuredSeries,
-) -> Result<(), String> {
+) -> DrawResult {
     let dt = if s.sample_rate_hz > 0.0 {
         1.0 / s.sample_rate_hz
     } else {

@@ -1,6 +1,7 @@
 //! Figure 2 (paper Fig. 14): the entropy of the bank's predictions at every PIP; figure 3
 //! (paper Fig. 16): the joint entropy as points are added, per sensor set.
 
+use crate::report::canvas::DrawResult;
 use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
@@ -9,7 +10,7 @@ use super::{
     annotation_font, centred_note, chart_builder, draw_mesh, eip_order, fmt_num, frame, Entry,
     Swatch, BAR_COLOUR, EIP_COLOUR, EIP_LABEL_COLOUR, PALETTE, PIP_COLOUR, REFERENCE_COLOUR,
 };
-use crate::identify::result::Identification;
+use crate::identify::answer::result::Identification;
 use crate::report::canvas::{
     above, draw_label, finite_runs, msg, text_size, Placer, FONT, LEGEND_SIZE,
 };
@@ -17,7 +18,7 @@ use crate::report::canvas::{
 pub(super) fn render_entropy<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     id: &Identification,
-) -> Result<(), String> {
+) -> DrawResult {
     let entries = [
         Entry::new("PIP", Swatch::Bar(BAR_COLOUR)),
         Entry::new("EIP (number = selection order)", Swatch::Bar(EIP_COLOUR)),
@@ -117,7 +118,7 @@ pub(super) fn render_entropy<DB: DrawingBackend>(
 pub(super) fn render_joint_entropy<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     id: &Identification,
-) -> Result<(), String> {
+) -> DrawResult {
     let log2n = if id.bank_instances > 0 {
         (id.bank_instances as f64).log2()
     } else {

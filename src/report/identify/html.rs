@@ -5,7 +5,7 @@
 use std::fmt::{self, Write as _};
 
 use super::{fmt_num, fmt_range, Figure, JSON_FILE};
-use crate::identify::result::{Identification, InstanceParams, ParamRanges};
+use crate::identify::answer::result::{Identification, InstanceParams, ParamRanges};
 use crate::report::canvas::escape_html;
 
 /// An SVG document made ready to inline in HTML: no XML prolog, doctype or leading comments,

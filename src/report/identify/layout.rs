@@ -1,6 +1,7 @@
 //! The figures' common layout: sizes, colours and fonts, the title-and-legend frame, legend
 //! swatches, the mesh, notes, and number formats; every figure of the report draws with them.
 
+use crate::report::canvas::DrawResult;
 use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
@@ -10,7 +11,7 @@ use super::super::canvas::{
     format_tick, legend_font, msg, text_width, Chart, FONT, GRID_BOLD, TAB10, TAB_BLUE, TAB_ORANGE,
     TAB_RED,
 };
-use crate::identify::result::Identification;
+use crate::identify::answer::result::Identification;
 
 // ---------------------------------------------------------------------------------------
 // Figures: common layout
@@ -149,7 +150,7 @@ pub(super) fn draw_swatch<DB: DrawingBackend>(
     swatch: Swatch,
     x: i32,
     y: i32,
-) -> Result<(), String> {
+) -> DrawResult {
     let x1 = x + LEGEND_SAMPLE as i32;
     let xm = (x + x1) / 2;
     match swatch {
@@ -198,7 +199,7 @@ pub(super) fn centred_note<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     text: &str,
     colour: RGBColor,
-) -> Result<(), String> {
+) -> DrawResult {
     let (w, h) = area.dim_in_pixel();
     let style = TextStyle::from((FONT, 30).into_font())
         .color(&colour)
@@ -214,7 +215,7 @@ pub(super) fn draw_mesh<DB: DrawingBackend>(
     y_desc: &str,
     integer_x: bool,
     integer_y: bool,
-) -> Result<(), String> {
+) -> DrawResult {
     let plain = |v: &f64| format_tick(*v);
     let integer = |v: &f64| {
         let r = v.round();

@@ -17,6 +17,7 @@
 //! Every file is written atomically: to a hidden temporary sibling first, then renamed into
 //! place, so a reader never sees a half-written file.
 
+use crate::report::canvas::DrawResult;
 use std::fmt;
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -25,7 +26,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::canvas::{ensure_font, msg, render_png, PlotError};
-use crate::identify::result::Identification;
+use crate::identify::answer::result::Identification;
 use layout::*;
 
 mod detection;
@@ -39,7 +40,7 @@ mod subsets;
 mod tests;
 
 /// File name of the JSON result inside the report folder.
-pub const JSON_FILE: &str = "identification.json";
+pub use crate::identify::json::JSON_FILE;
 /// File name of the HTML report inside the report folder.
 pub const HTML_FILE: &str = "report.html";
 
@@ -88,6 +89,16 @@ pub enum ReportError {
         /// Which figure.
         figure: Figure,
     },
+}
+
+impl From<crate::identify::json::WriteError> for ReportError {
+    fn from(e: crate::identify::json::WriteError) -> ReportError {
+        use crate::identify::json::WriteError;
+        match e {
+            WriteError::Io { path, source } => ReportError::Io { path, source },
+            WriteError::Json { path, source } => ReportError::Json { path, source },
+        }
+    }
 }
 
 /// The files of one report, all inside the report folder.
@@ -215,32 +226,13 @@ pub fn write_identification_report(
     id: &Identification,
     dir: &Path,
 ) -> Result<ReportFiles, ReportError> {
-    let json = write_identification_json(id, dir)?;
+    let json = id.write_json(dir)?;
     let (figures, html) = write_figures_and_html(id, dir)?;
     Ok(ReportFiles {
         json,
         html,
         figures,
     })
-}
-
-/// Writes `identification.json` alone into `dir` (created with its parents if missing),
-/// atomically: what a monitoring system reads, before any figure is drawn. Returns its path.
-///
-/// # Errors
-/// [`ReportError::Io`] or [`ReportError::Json`].
-pub fn write_identification_json(id: &Identification, dir: &Path) -> Result<PathBuf, ReportError> {
-    fs::create_dir_all(dir).map_err(|source| ReportError::Io {
-        path: dir.to_path_buf(),
-        source,
-    })?;
-    let json_path = dir.join(JSON_FILE);
-    let json = serde_json::to_string_pretty(id).map_err(|source| ReportError::Json {
-        path: json_path.clone(),
-        source,
-    })?;
-    write_atomic(&json_path, json.as_bytes())?;
-    Ok(json_path)
 }
 
 /// Draws every available figure of `id` (PNG and SVG) and `report.html` into `dir`, e.g. from
@@ -368,7 +360,7 @@ fn render<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     id: &Identification,
     fig: Figure,
-) -> Result<(), String> {
+) -> DrawResult {
     root.fill(&WHITE).map_err(msg)?;
     match fig {
         Figure::Series => series::render_series(root, id),

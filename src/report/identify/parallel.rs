@@ -1,6 +1,7 @@
 //! Figure 4 (paper Fig. 17): the candidate model set in parallel coordinates, each axis
 //! spanning the population bounds, with the residual-minimisation optimum dashed.
 
+use crate::report::canvas::DrawResult;
 use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
@@ -8,7 +9,7 @@ use plotters::prelude::*;
 use super::{
     centred_note, fmt_axis, fmt_num, frame, Entry, Swatch, CAPTION_SIZE, CMS_COLOUR, EIP_COLOUR,
 };
-use crate::identify::result::{Identification, InstanceParams, ParamRanges};
+use crate::identify::answer::result::{Identification, InstanceParams, ParamRanges};
 use crate::report::canvas::{
     draw_label, finite_runs, format_tick, msg, text_size, FONT, LEGEND_SIZE,
 };
@@ -91,7 +92,7 @@ fn inner_ticks(lo: f64, hi: f64) -> Vec<f64> {
 pub(super) fn render_parallel<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     id: &Identification,
-) -> Result<(), String> {
+) -> DrawResult {
     let n = id.cms.len();
     let rm = &id.residual_minimisation;
     let mut entries = Vec::with_capacity(2);

@@ -1,6 +1,7 @@
 //! Figure 1 (paper Figs. 12, 13, 15): each measured series with its PIPs, the EIP numbered in
 //! selection order, and the falsification band at each EIP.
 
+use crate::report::canvas::DrawResult;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
@@ -9,7 +10,7 @@ use super::{
     BAND_COLOUR, CAPTION_SIZE, EIP_COLOUR, EIP_LABEL_COLOUR, ENVELOPE_COLOUR, MEASURED_COLOUR,
     PIP_COLOUR,
 };
-use crate::identify::result::Identification;
+use crate::identify::answer::result::Identification;
 use crate::report::canvas::{
     around, draw_label, finite_runs, min_max, msg, pad_range, text_size, Placer, FONT,
 };
@@ -17,7 +18,7 @@ use crate::report::canvas::{
 pub(super) fn render_series<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     id: &Identification,
-) -> Result<(), String> {
+) -> DrawResult {
     let mut entries = vec![
         Entry::new("measured", Swatch::Line(MEASURED_COLOUR, 2)),
         Entry::new("PIP", Swatch::HollowCircle(PIP_COLOUR)),
@@ -59,7 +60,7 @@ fn series_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     id: &Identification,
     k: usize,
-) -> Result<(), String> {
+) -> DrawResult {
     let Some(s) = id.series.get(k) else {
         return Ok(());
     };

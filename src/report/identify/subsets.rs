@@ -1,6 +1,7 @@
 //! Figure 5 (paper Fig. 18): the CMS size over random subsets of the PIPs, against the CMS
 //! size with the EIP.
 
+use crate::report::canvas::DrawResult;
 use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
@@ -9,7 +10,7 @@ use super::{
     centred_note, chart_builder, draw_mesh, fmt_num, frame, Entry, Swatch, BAR_COLOUR, EIP_COLOUR,
     PIP_COLOUR, REFERENCE_COLOUR,
 };
-use crate::identify::result::Identification;
+use crate::identify::answer::result::Identification;
 use crate::report::canvas::msg;
 
 /// A "nice" bin width (1, 2 or 5 × 10^k) at least `raw`, and at least 1.
@@ -29,7 +30,7 @@ fn nice_width(raw: f64) -> usize {
 pub(super) fn render_random_subsets<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     id: &Identification,
-) -> Result<(), String> {
+) -> DrawResult {
     let Some(rs) = &id.random_subsets else {
         return centred_note(root, "no random subsets drawn", PIP_COLOUR);
     };

@@ -47,7 +47,7 @@ fn main() {
         let times = train::read_triggers(Path::new("t.csv"), &syn.triggers_csv).expect("t");
         let bogies = train::bogies_from_triggers(&cal, Path::new("t.csv"), &times).expect("b");
         let ids = vec![&id; bogies.len()];
-        let mut r = train::identify_train(&ids, &m, &bogies).expect("train");
+        let mut r = train::identify_bogies(&ids, &m, &bogies).expect("train");
         if let Some(n) = refine {
             let settings = wheelflat::identify::refine::RefineSettings {
                 simulations: n,

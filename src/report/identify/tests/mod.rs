@@ -4,7 +4,7 @@
 
 use super::html::cms_ranges;
 use super::*;
-use crate::identify::result::{ParamRanges, WheelRanges};
+use crate::identify::answer::result::{ParamRanges, WheelRanges};
 use crate::report::canvas::{escape_html, format_tick};
 use crate::report::dir_entries;
 

@@ -2,7 +2,7 @@
 //! instances, 200 random subsets), for looking at the report's layout without a bank
 //! (`examples/identify_preview.rs`) and for the report's tests.
 
-use crate::identify::result::{
+use crate::identify::answer::result::{
     Alignment, CandidatePoint, EntropyCurve, Falsification, Identification, InstanceParams,
     MeasuredSeries, Method, ParamRanges, RandomSubsets,
 };
@@ -167,11 +167,11 @@ pub(super) fn identification() -> Identification {
     let detected = detection(&series);
     Identification {
         measurement: "measurements/2019-03-14_train7_axle3.parquet".into(),
-        speed: crate::identify::result::SpeedUse {
+        speed: crate::identify::answer::result::SpeedUse {
             pass_km_per_h: Some(49.6),
             bank_km_per_h: 50.0,
         },
-        load: Some(crate::identify::load::LoadEstimate {
+        load: Some(crate::identify::detect::load::LoadEstimate {
             wheel_load_kn: 47.9,
             interval_kn: [43.6, 52.7],
             car_body_mass_kg: 7173.0,
@@ -183,12 +183,12 @@ pub(super) fn identification() -> Identification {
         bank_instances: 50_000,
         population,
         alignment: Alignment {
-            method: crate::identify::result::AlignmentMethod::CrossCorrelation,
+            method: crate::identify::answer::result::AlignmentMethod::CrossCorrelation,
             shift_s: 0.01234,
             correlation: Some(0.987),
         },
         series,
-        pip_distance: crate::identify::pip::PipDistance::Vertical,
+        pip_distance: crate::identify::input::pip::PipDistance::Vertical,
         pips_per_series: 10,
         candidates,
         eip,

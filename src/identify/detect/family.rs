@@ -1,0 +1,176 @@
+//! The identifiers of a bank family's members ([`crate::bank::family`]), each opened the first
+//! time a pass at its speed needs it and kept open after (a resident `watch`, a train whose
+//! bogies run at several speeds).
+
+use crate::bank::family::Family;
+use crate::identify::{Identifier, IdentifyError, Measurement};
+use crate::model::calibration::IdentificationParams;
+use std::path::Path;
+
+/// A family (or a single bank) and the identifiers opened on its members so far.
+pub struct Members {
+    family: Family,
+    /// Settings for every member (`None`: each member's stored ones).
+    settings: Option<IdentificationParams>,
+    open: Vec<Option<Identifier>>,
+}
+
+impl Members {
+    /// Opens `dir` (a family or a single bank; a single bank's identifier is built at once).
+    pub fn open(
+        dir: &Path,
+        settings: Option<IdentificationParams>,
+    ) -> Result<Members, IdentifyError> {
+        let (family, single) = Family::open(dir)?;
+        let mut open: Vec<Option<Identifier>> = family.members.iter().map(|_| None).collect();
+        if let Some(bank) = single {
+            open[0] = Some(identifier(bank, &settings)?);
+        }
+        Ok(Members {
+            family,
+            settings,
+            open,
+        })
+    }
+
+    /// The family.
+    pub fn family(&self) -> &Family {
+        &self.family
+    }
+
+    /// The member a pass at `speed_km_per_h` is compared with, opened if it was not yet;
+    /// its index for [`Members::get`]. A speed no member covers is an error naming the band.
+    pub fn member_for(&mut self, speed_km_per_h: f64) -> Result<usize, IdentifyError> {
+        let k = self.family.member_for(speed_km_per_h)?;
+        self.open_member(k)?;
+        Ok(k)
+    }
+
+    /// The member a pass is compared with, opened: the member at its speed
+    /// (`m.speed_km_per_h`, which the caller states), and among the members at that speed the
+    /// one nearest the load its record shows, read on the member nearest the calibration's own
+    /// load ([`Identifier::estimate_load`]). A single bank, or a family without loads, is
+    /// checked the same way: a load outside every member's tolerances
+    /// ([`crate::bank::loads::nearest_load`]) is refused with the loads covered named. `nearest`: the nearest member
+    /// however far (diagnosis, which lets the record say what it is). `sensors` as for
+    /// [`Identifier::identify`].
+    pub fn member_for_pass(
+        &mut self,
+        m: &Measurement,
+        sensors: Option<&[String]>,
+        nearest: bool,
+    ) -> Result<usize, IdentifyError> {
+        let v = m.speed_km_per_h.ok_or_else(|| IdentifyError::NoSpeed {
+            path: m.path.clone(),
+        })?;
+        let k = if nearest {
+            self.family.nearest_member(v)
+        } else {
+            self.family.member_for(v)?
+        };
+        let at_speed = self.family.at_speed_of(k);
+        // The member nearest the calibration's own load reads the record's.
+        let own = at_speed
+            .iter()
+            .copied()
+            .min_by(|&a, &b| {
+                let f = |j: usize| {
+                    self.family.members[j]
+                        .load_factor
+                        .map_or(0.0, |x| (x - 1.0).abs())
+                };
+                f(a).total_cmp(&f(b))
+            })
+            .expect("a speed has members");
+        self.open_member(own)?;
+        // Nearest however far (diagnosis): the record is read at the member's speed, which
+        // the diagnosis then questions.
+        let at_member;
+        let m = match nearest {
+            true => {
+                at_member = Measurement {
+                    speed_km_per_h: Some(self.family.members[own].speed_km_per_h),
+                    ..m.clone()
+                };
+                &at_member
+            }
+            false => m,
+        };
+        let Some(load) = self.get(own).estimate_load(m, sensors)? else {
+            return Ok(own);
+        };
+        let loads_kn: Vec<f64> = at_speed
+            .iter()
+            .map(|&j| match self.family.loads {
+                Some(_) => self.family.members[j].wheel_load_kn,
+                None => load.bank_wheel_load_kn,
+            })
+            .collect();
+        let k = self
+            .family
+            .member_for_load(&at_speed, &loads_kn, load.wheel_load_kn, nearest)
+            .map_err(|refusal| IdentifyError::Load {
+                refusal,
+                interval_kn: load.interval_kn,
+                probability: crate::identify::detect::load::LOAD_INTERVAL_PROBABILITY,
+                car_body_mass_kg: load.car_body_mass_kg,
+            })?;
+        self.open_member(k)?;
+        Ok(k)
+    }
+
+    /// Any member's identifier (one already open, else the middle member, opened): for what
+    /// every member shares (sample rate, sensors, vehicle).
+    pub fn any(&mut self) -> Result<&Identifier, IdentifyError> {
+        let k = match self.open.iter().position(Option::is_some) {
+            Some(k) => k,
+            None => {
+                let k = self.open.len() / 2;
+                self.open_member(k)?;
+                k
+            }
+        };
+        Ok(self.get(k))
+    }
+
+    /// The identifier of an opened member.
+    ///
+    /// # Panics
+    /// When member `k` was not opened by [`Members::member_for`], [`Members::open_member`] or
+    /// [`Members::any`].
+    pub fn get(&self, k: usize) -> &Identifier {
+        self.open[k]
+            .as_ref()
+            .expect("a member is opened by member_for before it is used")
+    }
+
+    /// Takes the identifier of an opened member out (for one-shot commands).
+    ///
+    /// # Panics
+    /// As [`Members::get`].
+    pub fn take(mut self, k: usize) -> Identifier {
+        self.open[k]
+            .take()
+            .expect("a member is opened by member_for before it is used")
+    }
+
+    /// Opens member `k` if it is not open yet (`k` as [`Family::member_for`] gives it).
+    pub fn open_member(&mut self, k: usize) -> Result<(), IdentifyError> {
+        if self.open[k].is_none() {
+            let bank = self.family.members[k].open()?;
+            self.open[k] = Some(identifier(bank, &self.settings)?);
+        }
+        Ok(())
+    }
+}
+
+/// An identifier on `bank` with `settings`, or the bank's own when `None`.
+fn identifier(
+    bank: crate::bank::Bank,
+    settings: &Option<IdentificationParams>,
+) -> Result<Identifier, IdentifyError> {
+    let s = settings
+        .clone()
+        .unwrap_or_else(|| bank.metadata().calibration.identification.clone());
+    Identifier::new(bank, s)
+}

@@ -1,0 +1,121 @@
+//! How a pass is compared with the bank: sample by sample, or — for a pass judged as rough —
+//! through the 5-sample binomial average `B₅` ([`crate::model::average`]), the measurement and
+//! every prediction alike (docs/detection.md, "Rough wheels").
+//!
+//! A rough tread or rail moves the pad forces most at high frequency, where the average takes
+//! it out; it costs the sharpest part of an impact, so a pass with round wheels on a smooth
+//! rail keeps the samples as they are (and the discretisation allowance those need). The
+//! bank stores the samples; an averaged prediction at sample `k` of a window is the weighted
+//! sum of the stored columns `k − 2 … k + 2` of that window (renormalised at its ends, as the
+//! measurement's), read in blocks. Detection always compares through the average: the
+//! classes a record cannot tell apart from round wheels (disc and composite treads, whose
+//! high-frequency level lies within the table's noise) leave the good wheel's bounds sample by
+//! sample, not through the average (measured, docs/detection.md).
+
+use crate::identify::input::measurement::MeasuredSeries;
+use crate::identify::{Identifier, IdentifyError};
+use crate::model::average::{centred_average, weights_at, BINOMIAL5};
+use serde::{Deserialize, Serialize};
+
+/// How a pass's series meet the bank's predictions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Comparison {
+    /// Sample by sample (round wheels on a smooth rail).
+    #[default]
+    Samples,
+    /// Through the 5-sample binomial average (a pass judged as rough).
+    Binomial5,
+}
+
+impl Comparison {
+    /// The average's weights (`[1.0]`: samples as they are).
+    pub fn weights(self) -> &'static [f64] {
+        match self {
+            Comparison::Samples => &[1.0],
+            Comparison::Binomial5 => &BINOMIAL5,
+        }
+    }
+
+    /// `series` as this comparison sees them.
+    pub fn series(self, series: &[MeasuredSeries]) -> Vec<MeasuredSeries> {
+        series
+            .iter()
+            .map(|s| MeasuredSeries {
+                values_kn: centred_average(&s.values_kn, self.weights()),
+                ..s.clone()
+            })
+            .collect()
+    }
+}
+
+/// Requested columns averaged at a time: 32 columns need at most 160 stored ones
+/// (32 MB for 50,000 instances).
+const BLOCK: usize = 32;
+
+impl Identifier {
+    /// Every instance's prediction at `(axis, sample)` of each of `points` as comparison `c`
+    /// sees it, into `out` (one column of `instances` after another).
+    pub(crate) fn read_compared(
+        &self,
+        points: &[(usize, usize)],
+        c: Comparison,
+        out: &mut [f32],
+    ) -> Result<(), IdentifyError> {
+        let n = self.bank.instances();
+        if c == Comparison::Samples {
+            let cols: Vec<usize> = points
+                .iter()
+                .map(|&(a, k)| self.bank.sample_index(a, k))
+                .collect();
+            return Ok(self.bank.read_columns_flat(&cols, out)?);
+        }
+        let axes = &self.bank.metadata().sensors;
+        for (b, block) in points.chunks(BLOCK).enumerate() {
+            // The stored columns the block's averages take, and their weights.
+            let mut stored: Vec<usize> = Vec::new();
+            let terms: Vec<Vec<(usize, f64)>> = block
+                .iter()
+                .map(|&(a, k)| {
+                    let (first, w) = weights_at(k, axes[a].samples, c.weights());
+                    w.into_iter()
+                        .enumerate()
+                        .map(|(j, w)| {
+                            let col = self.bank.sample_index(a, first + j);
+                            let at = stored.iter().position(|&s| s == col).unwrap_or_else(|| {
+                                stored.push(col);
+                                stored.len() - 1
+                            });
+                            (at, w)
+                        })
+                        .collect()
+                })
+                .collect();
+            let values = self.bank.read_columns(&stored)?;
+            for (j, t) in terms.iter().enumerate() {
+                let dest = &mut out[(b * BLOCK + j) * n..(b * BLOCK + j + 1) * n];
+                for (i, d) in dest.iter_mut().enumerate() {
+                    *d = t
+                        .iter()
+                        .map(|&(at, w)| w * f64::from(values[at][i]))
+                        .sum::<f64>() as f32;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The bank's flat-free predictions through the average, one per axis (kN).
+pub(crate) fn averaged_templates(templates: &[Vec<f32>]) -> Vec<Vec<f32>> {
+    templates
+        .iter()
+        .map(|t| {
+            let x: Vec<f64> = t.iter().map(|&g| f64::from(g)).collect();
+            centred_average(&x, &BINOMIAL5)
+                .into_iter()
+                .map(|g| g as f32)
+                .collect()
+        })
+        .collect()
+}
