@@ -231,6 +231,27 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_landings_calibration_refines_around_the_sensors_and_is_another_bank() {
+        let c = Calibration::default();
+        let l = c.with_converged_landings();
+        // The sensors sit on sleepers 15–19: the stretch from sleeper 12 to 22, 40 elements.
+        let s = c.track.sleeper_spacing_m;
+        let span = &l.integration.refine[0];
+        assert_eq!(span.elements_per_bay, LANDING_ELEMENTS_PER_BAY);
+        assert!((span.from_m - 12.0 * s).abs() < 1e-12 && (span.to_m - 22.0 * s).abs() < 1e-12);
+        assert_eq!(l.integration.fine_steps_per_coarse, LANDING_FINE_STEPS);
+        assert!(l.identification.discretisation_fraction.abs() < 1e-12);
+        // Its model part differs, so a bank built from it has its own identity (never mixed
+        // with the default's); the identification settings alone would not change it.
+        assert_ne!(l.model_toml_string(), c.model_toml_string());
+        l.clone().check().unwrap();
+        // The converged reference from it keeps 2 µs fine steps, not 0.2 µs.
+        let r = l.converged_reference();
+        assert_eq!(r.integration.fine_steps_per_coarse, 10);
+        assert_eq!(r.integration.elements_per_bay, 40);
+    }
+
+    #[test]
     fn defaults_pass_and_round_trip_through_toml() {
         let c = Calibration::default();
         let text = c.to_toml_string();
