@@ -6,8 +6,8 @@
 #
 #   scripts/same-outputs.sh OLD_BINARY NEW_BINARY BANK WORK PASSES_DIR
 #
-# PASSES_DIR: folders holding measured.csv (the 40 + 5 independent passes:
-# ../shared/independent-passes). WORK is made afresh.
+# PASSES_DIR: a folder of folders each holding measured.csv (the 40 + 5 independent passes
+# of the converged second implementation). WORK is made afresh.
 # Exit status 0 when every output matches, 1 with the differences listed.
 set -euo pipefail
 old=$(realpath "$1"); new=$(realpath "$2"); bank=$(realpath "$3"); work=$4

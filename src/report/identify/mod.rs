@@ -58,15 +58,10 @@ pub enum ReportError {
         #[source]
         source: std::io::Error,
     },
-    /// The identification could not be serialised to JSON.
-    #[error("{}: cannot serialise the identification: {source}", path.display())]
-    Json {
-        /// The JSON file that was to be written.
-        path: PathBuf,
-        /// The serialiser's error.
-        #[source]
-        source: serde_json::Error,
-    },
+    /// The identification could not be serialised to JSON (`identification.json`, written
+    /// beside the result: [`crate::identify::json`]).
+    #[error(transparent)]
+    Json(crate::identify::json::WriteError),
     /// The embedded font could not be registered with the plotting library.
     #[error("{}: the embedded font assets/DejaVuSans.ttf could not be loaded", path.display())]
     Font {
@@ -96,7 +91,7 @@ impl From<crate::identify::json::WriteError> for ReportError {
         use crate::identify::json::WriteError;
         match e {
             WriteError::Io { path, source } => ReportError::Io { path, source },
-            WriteError::Json { path, source } => ReportError::Json { path, source },
+            e @ WriteError::Json { .. } => ReportError::Json(e),
         }
     }
 }
