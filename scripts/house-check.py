@@ -18,6 +18,7 @@ import sys
 MAX_LINES = 600
 # The library's layers, top first (docs/architecture.md, "Layers").
 LAYERS = [
+    ["serve"],
     ["pass"],
     ["report"],
     ["diagnose"],

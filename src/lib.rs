@@ -23,6 +23,7 @@ pub mod identify;
 pub mod model;
 pub mod pass;
 pub mod report;
+pub mod serve;
 pub mod site;
 mod stopwatch;
 pub mod train;

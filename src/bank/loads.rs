@@ -10,8 +10,7 @@ use serde::{Deserialize, Serialize};
 
 /// How much lighter (relative, in static wheel load) than the member it is compared with a
 /// pass's load may be: measured 2026-11-26 (`studies/src/bin/load_study`, 200 converged passes a
-/// load, docs/bank.md "Every load"): coverage 0.990 at −7.4 %, 0.970 at −14.9 % (0.990 at the
-/// member's own load).
+/// load): the coverage at each offset is in docs/bank.md, "Bank families: every load".
 pub(crate) const LOAD_TOLERANCE_LIGHTER: f64 = 0.15;
 /// How much heavier than its member a pass's load may be: coverage 1.000 at +14.9 % and at
 /// +29.7 % (the same study).

@@ -93,6 +93,10 @@ pub(super) enum Command {
     /// answer of the newest passes (the flat must fit them all), its severity classes, and
     /// a trend figure; a wheel whose flat grew is reported as changed.
     History(super::history::HistoryArgs),
+    /// A read-only web view of a results database for the people who watch a site: the wheels
+    /// that need action first, every wheel, the passes of the last hours, a wheel's trend, a
+    /// pass's report, each page with its JSON (on 127.0.0.1:8080 unless told otherwise).
+    Serve(super::serve::ServeArgs),
     /// Audit one model instance: re-simulate it and compare with the bank; with a measurement,
     /// show why it is kept or falsified.
     Audit(AuditArgs),
@@ -117,6 +121,13 @@ pub(super) enum Command {
         /// a quick look; a folded bank stores a quarter of them).
         #[arg(long, default_value_t = DEFAULT_INSTANCES)]
         instances: usize,
+        /// Then identify a small site's passes into a results database and serve it (see it
+        /// in a browser; Ctrl-C stops).
+        #[arg(long)]
+        serve: bool,
+        /// Where `--serve` listens.
+        #[arg(long, default_value = "127.0.0.1:8080", requires = "serve")]
+        listen: std::net::SocketAddr,
     },
 }
 

@@ -3,8 +3,9 @@
 
 use anyhow::{Context, Result};
 use clap::Args;
-use std::path::PathBuf;
-use wheelflat::history::{fuse, Db, FusionRule, PassRecord, Window};
+use std::path::{Path, PathBuf};
+use wheelflat::history::{fuse, Db, Failure, FailureKind, FusionRule, PassRecord, Window};
+use wheelflat::pass::PassError;
 use wheelflat::report::history::{draw_trend, HistoryReport};
 
 // `history`.
@@ -72,6 +73,48 @@ pub(super) fn stored_line(db: &Db, rec: &PassRecord, new: bool) -> String {
         if new { "stored in" } else { "already in" },
         db.path().display()
     )
+}
+
+/// Stores a pass that gave no answer (`refused` when wheelflat declined the input, `failed`
+/// otherwise) with its reason. The pass's own error stays the one reported: a database that
+/// cannot take the note is named on stderr.
+pub(super) fn store_failure(db: &mut Db, measurement: &Path, e: &anyhow::Error) {
+    let refused = e.chain().any(|c| {
+        c.is::<wheelflat::identify::IdentifyError>()
+            || c.is::<wheelflat::pass::input::InputError>()
+            || c.is::<wheelflat::train::TrainError>()
+            || matches!(
+                c.downcast_ref::<PassError>(),
+                Some(
+                    PassError::Input(_)
+                        | PassError::NoMember { .. }
+                        | PassError::NoMemberForBogie { .. }
+                        | PassError::Identify(_)
+                        | PassError::Train(_)
+                )
+            )
+    });
+    let failure = Failure {
+        id: 0,
+        time: String::new(),
+        time_s: std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0.0, |d| d.as_secs_f64()),
+        measurement: measurement.display().to_string(),
+        bogie_id: None,
+        kind: if refused {
+            FailureKind::Refused
+        } else {
+            FailureKind::Failed
+        },
+        reason: format!("{e:#}"),
+    };
+    if let Err(store) = db.insert_failure(&failure) {
+        eprintln!(
+            "warning: the {} pass was not noted: {store}",
+            failure.kind.as_str()
+        );
+    }
 }
 
 /// `wheelflat history`.

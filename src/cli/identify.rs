@@ -12,12 +12,21 @@ use wheelflat::report::tables::{comparison_table, identification_text};
 /// Identifies; writes `identification.json` and prints the verdict before anything else, then
 /// with `--report` the figures and the HTML report.
 pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
-    let i = &a.input;
     // A database that cannot be opened is refused before any work.
     let mut db =
         a.db.as_deref()
             .map(wheelflat::pass::store::open_db)
             .transpose()?;
+    let result = identify_pass(a, db.as_mut());
+    if let (Err(e), Some(db)) = (&result, db.as_mut()) {
+        super::history::store_failure(db, &a.input.measured, e);
+    }
+    result
+}
+
+/// [`identify`] once the results database (when asked for) is open.
+fn identify_pass(a: &IdentifyArgs, db: Option<&mut wheelflat::history::Db>) -> Result<()> {
+    let i = &a.input;
     let (identifier, m) = open_measured(i, false)?;
     let extras = if a.report {
         Extras {
@@ -32,8 +41,8 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
     if let Some(simulations) = a.refine.simulations() {
         refine_into(&identifier, &mut id, simulations)?;
     }
-    if let Some(db) = &mut db {
-        let rec = record(&id, &identifier, &m, &i.measured)?;
+    if let Some(db) = db {
+        let rec = record(&id, &identifier, &m, &i.measured, &a.out)?;
         let new = wheelflat::pass::store::store(db, &rec)?;
         println!("{}", super::history::stored_line(db, &rec, new));
     }

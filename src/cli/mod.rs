@@ -6,7 +6,7 @@
 //! - [`progress`]: the progress bar or log lines of long jobs.
 //! - one file per command or group: [`calibration`], [`simulate`], [`bank`] (generate,
 //!   merge, info, verify, audit), [`synth`], [`identify`] (identify, report, compare),
-//!   [`watch`], [`train`], [`audit`], [`diagnose`], [`calibrate`], [`demo`].
+//!   [`watch`], [`train`], [`audit`], [`diagnose`], [`calibrate`], [`demo`], [`serve`].
 
 mod args;
 mod audit;
@@ -14,6 +14,7 @@ mod bank;
 mod calibrate;
 mod calibration;
 mod demo;
+mod demo_site;
 mod diagnose;
 mod family;
 mod flat_args;
@@ -22,6 +23,7 @@ mod history;
 mod identify;
 mod progress;
 mod refine_args;
+mod serve;
 mod simulate;
 mod surface_args;
 mod synth;
@@ -93,11 +95,17 @@ pub fn main() -> ExitCode {
         },
         Command::Train(a) => train::run(&a),
         Command::History(a) => history::run(&a),
+        Command::Serve(a) => serve::run(&a),
         Command::Demo {
             out,
             bank,
             instances,
-        } => demo::run(&out, &bank, instances),
+            serve,
+            listen,
+        } => demo::run(&out, &bank, instances).and_then(|()| match serve {
+            true => demo_site::run(&out, &bank, listen),
+            false => Ok(()),
+        }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

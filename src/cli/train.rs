@@ -46,7 +46,13 @@ pub(super) fn run(a: &TrainArgs) -> Result<()> {
         a.refine.simulations(),
     )?;
     if let Some(db) = &mut db {
-        let stored = train_pass::store_train(db, &members, &pass, &[&a.recording, &a.triggers])?;
+        let stored = train_pass::store_train(
+            db,
+            &members,
+            &pass,
+            &[&a.recording, &a.triggers],
+            Some(&a.out),
+        )?;
         println!("{}", stored_line(db, &pass, stored));
     }
     let result = &pass.result;

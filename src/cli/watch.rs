@@ -109,7 +109,13 @@ fn identify_one(
         wheelflat::pass::train::write_train(&pass.result, out)?;
         // Stored before the inputs move: a crash between the two stores nothing twice.
         if let Some(db) = db {
-            wheelflat::pass::train::store_train(db, &open.members, &pass, &[path, triggers])?;
+            wheelflat::pass::train::store_train(
+                db,
+                &open.members,
+                &pass,
+                &[path, triggers],
+                Some(out),
+            )?;
         }
         let result = &pass.result;
         let flats: Vec<String> = result
@@ -310,6 +316,9 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
                         move_into(t, &failed)?;
                     }
                     move_into(&path, &failed)?;
+                    if let Some(db) = db.as_mut() {
+                        super::history::store_failure(db, &path, &e);
+                    }
                     println!("{} {name} FAILED {ms:.1} ms: {e:#}", stamp());
                 }
             }

@@ -13,21 +13,26 @@
 //! - **Readers while a writer writes.** The write-ahead log lets `history` read while `watch`
 //!   writes; both wait up to [`BUSY_TIMEOUT_MS`] for a lock.
 
-use super::record::{boxes_from_bytes, boxes_to_bytes, Claim, PassRecord, Space, WheelPass};
-use crate::identify::{Severity, SeverityRange};
-use crate::model::WheelPosition;
+use super::record::{boxes_to_bytes, PassRecord};
+pub(super) use super::row::severity_of;
+use super::row::RawRow;
+pub use super::row::StoredPass;
+use crate::identify::SeverityRange;
 use rusqlite::{params, Connection, OpenFlags, OptionalExtension, TransactionBehavior};
 use std::path::{Path, PathBuf};
 
 /// `PRAGMA application_id` of a wheelflat results database: `WFLT`.
 pub(crate) const APPLICATION_ID: i32 = 0x5746_4C54;
-/// The schema this wheelflat writes and reads.
-pub(crate) const SCHEMA_VERSION: i32 = 1;
+/// The schema this wheelflat writes and reads (2: the passes refused or failed, and where a
+/// pass's result was written; a version-1 file is upgraded when opened for writing, and read
+/// as it is when opened read-only).
+pub(crate) const SCHEMA_VERSION: i32 = 2;
 /// How long a reader or writer waits for another's lock (ms).
 pub(crate) const BUSY_TIMEOUT_MS: u64 = 10_000;
 /// The most passes one query returns (a window larger than this is cut to the newest).
 pub(crate) const MAX_WINDOW_PASSES: usize = 1000;
 
+/// The tables of version 1 (a new database gets [`UPGRADE_1_TO_2`] after them).
 const SCHEMA: &str = "
 CREATE TABLE passes (
     id INTEGER PRIMARY KEY,
@@ -59,6 +64,24 @@ CREATE TABLE wheel_passes (
 );
 CREATE INDEX wheel_passes_by_wheel ON wheel_passes(wheel_id, pass_id);
 CREATE INDEX passes_by_time ON passes(time_s);
+";
+
+/// What version 1 lacks: where each pass's result was written, the passes refused or failed. A
+/// new database is made as version 1 ([`SCHEMA`]) and upgraded at once, in one transaction:
+/// one text of each table.
+const UPGRADE_1_TO_2: &str = "
+ALTER TABLE passes ADD COLUMN result_dir TEXT;
+CREATE TABLE failures (
+    id INTEGER PRIMARY KEY,
+    time TEXT NOT NULL,
+    time_s REAL NOT NULL,
+    measurement TEXT NOT NULL,
+    bogie_id TEXT,
+    outcome TEXT NOT NULL CHECK (outcome IN ('refused', 'failed')),
+    reason TEXT NOT NULL
+);
+CREATE INDEX failures_by_time ON failures(time_s);
+PRAGMA user_version = 2;
 ";
 
 /// What can go wrong with the database, naming the file.
@@ -109,27 +132,6 @@ pub enum DbError {
     },
 }
 
-/// A stored pass of one wheel, as `history` reads it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct StoredPass {
-    /// Row id of the pass.
-    pub pass_id: i64,
-    /// When it was identified (RFC 3339, UTC).
-    pub time: String,
-    /// The same in Unix seconds.
-    pub time_s: f64,
-    /// The measurement file.
-    pub measurement: String,
-    /// The pass's speed (km/h).
-    pub speed_km_per_h: Option<f64>,
-    /// The bank's speed (km/h).
-    pub bank_speed_km_per_h: f64,
-    /// The bank it was compared with.
-    pub bank_id: String,
-    /// What it says of the wheel.
-    pub wheel: WheelPass,
-}
-
 /// A wheel the database knows, for the overview.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WheelSummary {
@@ -154,23 +156,43 @@ pub struct Window {
 
 /// An open results database.
 pub struct Db {
-    conn: Connection,
+    pub(super) conn: Connection,
     path: PathBuf,
+    /// The file's schema version: [`SCHEMA_VERSION`], or 1 for an old file opened read-only.
+    pub(super) version: i32,
+}
+
+/// How [`Db::open_with`] opens the file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Mode {
+    /// Read and write; an absent or empty file is made a database.
+    Create,
+    /// Read and write an existing database.
+    Existing,
+    /// Read only, never writing (an old schema is read as it is).
+    ReadOnly,
 }
 
 impl Db {
     /// Opens the database at `path`, creating it (and its schema) when there is no file or an
     /// empty one; refuses a file that is not one.
     pub fn open(path: &Path) -> Result<Db, DbError> {
-        Db::open_with(path, true)
+        Db::open_with(path, Mode::Create)
     }
 
     /// Opens an existing database for reading and writing (never creates one).
     pub fn open_existing(path: &Path) -> Result<Db, DbError> {
-        Db::open_with(path, false)
+        Db::open_with(path, Mode::Existing)
     }
 
-    fn open_with(path: &Path, create: bool) -> Result<Db, DbError> {
+    /// Opens an existing database read-only (`serve`): SQLite refuses every write on it, and a
+    /// version-1 file is read as it is (no failures, no result folders).
+    pub fn open_read_only(path: &Path) -> Result<Db, DbError> {
+        Db::open_with(path, Mode::ReadOnly)
+    }
+
+    fn open_with(path: &Path, mode: Mode) -> Result<Db, DbError> {
+        let create = mode == Mode::Create;
         let sql = |source| DbError::Sqlite {
             path: path.to_path_buf(),
             source,
@@ -189,13 +211,11 @@ impl Db {
                 path: path.to_path_buf(),
             });
         }
-        let flags = OpenFlags::SQLITE_OPEN_READ_WRITE
-            | OpenFlags::SQLITE_OPEN_NO_MUTEX
-            | if create {
-                OpenFlags::SQLITE_OPEN_CREATE
-            } else {
-                OpenFlags::empty()
-            };
+        let flags = match mode {
+            Mode::Create => OpenFlags::SQLITE_OPEN_READ_WRITE | OpenFlags::SQLITE_OPEN_CREATE,
+            Mode::Existing => OpenFlags::SQLITE_OPEN_READ_WRITE,
+            Mode::ReadOnly => OpenFlags::SQLITE_OPEN_READ_ONLY,
+        } | OpenFlags::SQLITE_OPEN_NO_MUTEX;
         let conn = Connection::open_with_flags(path, flags).map_err(sql)?;
         conn.busy_timeout(std::time::Duration::from_millis(BUSY_TIMEOUT_MS))
             .map_err(sql)?;
@@ -224,6 +244,9 @@ impl Db {
             }
             Err(e) => return Err(sql(e)),
         };
+        if id == 0 && version == 0 && tables == 0 && mode == Mode::ReadOnly {
+            return Err(not_ours("an empty file".into()));
+        }
         if id == 0 && version == 0 && tables == 0 {
             // An empty SQLite file (or none): made ours. Two processes may both find it empty;
             // the second finds the schema inside its own transaction and leaves it.
@@ -238,12 +261,12 @@ impl Db {
                 .map_err(sql)?;
             if tables == 0 {
                 tx.execute_batch(&format!(
-                    "{SCHEMA} PRAGMA application_id = {APPLICATION_ID}; PRAGMA user_version = {SCHEMA_VERSION};"
+                    "{SCHEMA} {UPGRADE_1_TO_2} PRAGMA application_id = {APPLICATION_ID}; PRAGMA user_version = {SCHEMA_VERSION};"
                 ))
                 .map_err(sql)?;
             }
             tx.commit().map_err(sql)?;
-            return Db::finish(conn, path);
+            return Db::finish(conn, path, SCHEMA_VERSION);
         } else if id != APPLICATION_ID {
             return Err(not_ours(format!(
                 "an SQLite database of another application (application_id {id:#x}, {tables} schema objects; wheelflat's is {APPLICATION_ID:#x})"
@@ -253,29 +276,49 @@ impl Db {
                 path: path.to_path_buf(),
                 found: version,
             });
+        } else if version == 1 && mode == Mode::ReadOnly {
+            return Db::finish(conn, path, 1);
+        } else if version == 1 {
+            // Upgraded in one transaction: a second process upgrading at once finds the new
+            // version inside its own and leaves it.
+            let mut conn = conn;
+            let tx = conn
+                .transaction_with_behavior(TransactionBehavior::Immediate)
+                .map_err(sql)?;
+            let now: i32 = tx
+                .query_row("PRAGMA user_version", [], |r| r.get(0))
+                .map_err(sql)?;
+            if now == 1 {
+                tx.execute_batch(UPGRADE_1_TO_2).map_err(sql)?;
+            }
+            tx.commit().map_err(sql)?;
+            return Db::finish(conn, path, SCHEMA_VERSION);
         } else if version != SCHEMA_VERSION {
             return Err(not_ours(format!(
                 "schema version {version}, which no wheelflat writes"
             )));
         }
-        Db::finish(conn, path)
+        Db::finish(conn, path, SCHEMA_VERSION)
     }
 
     /// The settings every connection runs with.
-    fn finish(conn: Connection, path: &Path) -> Result<Db, DbError> {
+    fn finish(conn: Connection, path: &Path, version: i32) -> Result<Db, DbError> {
         let sql = |source| DbError::Sqlite {
             path: path.to_path_buf(),
             source,
         };
-        conn.pragma_update(None, "journal_mode", "WAL")
-            .map_err(sql)?;
-        conn.pragma_update(None, "synchronous", "FULL")
-            .map_err(sql)?;
+        if !conn.is_readonly(rusqlite::MAIN_DB).map_err(sql)? {
+            conn.pragma_update(None, "journal_mode", "WAL")
+                .map_err(sql)?;
+            conn.pragma_update(None, "synchronous", "FULL")
+                .map_err(sql)?;
+        }
         conn.pragma_update(None, "foreign_keys", "ON")
             .map_err(sql)?;
         Ok(Db {
             conn,
             path: path.to_path_buf(),
+            version,
         })
     }
 
@@ -284,7 +327,7 @@ impl Db {
         &self.path
     }
 
-    fn sql(&self, source: rusqlite::Error) -> DbError {
+    pub(super) fn sql(&self, source: rusqlite::Error) -> DbError {
         DbError::Sqlite {
             path: self.path.clone(),
             source,
@@ -317,7 +360,7 @@ impl Db {
         let m = &rec.meta;
         let time = rfc3339(m.time_s);
         tx.execute(
-            "INSERT INTO passes (key, time, time_s, measurement, bank_id, speed_km_per_h, bank_speed_km_per_h, load_kn, bogie_id, summary) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)",
+            "INSERT INTO passes (key, time, time_s, measurement, bank_id, speed_km_per_h, bank_speed_km_per_h, load_kn, bogie_id, summary, result_dir) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11)",
             params![
                 m.key,
                 time,
@@ -328,7 +371,8 @@ impl Db {
                 m.bank_speed_km_per_h,
                 m.load_kn,
                 m.bogie_id,
-                m.summary
+                m.summary,
+                m.result_dir
             ],
         )
         .map_err(sql)?;
@@ -433,18 +477,32 @@ impl Db {
     /// The passes of one wheel in `window`, oldest first.
     pub fn wheel_passes(&self, wheel_id: &str, window: Window) -> Result<Vec<StoredPass>, DbError> {
         let last = window.last.clamp(1, MAX_WINDOW_PASSES) as i64;
-        let mut st = self
-            .conn
-            .prepare(
-                "SELECT p.id, p.time, p.time_s, p.measurement, p.speed_km_per_h, p.bank_speed_km_per_h, p.bank_id,
-                        w.wheel, w.claim, w.l0_min_mm, w.l0_max_mm, w.severity_lowest, w.severity_highest,
-                        w.limit_l0_mm, w.space, w.cells, w.boxes
-                 FROM wheel_passes w JOIN passes p ON p.id = w.pass_id
-                 WHERE w.wheel_id = ?1 ORDER BY p.time_s DESC, p.id DESC LIMIT ?2",
-            )
-            .map_err(|e| self.sql(e))?;
+        let mut out = self.stored(
+            &format!(
+                "{STORED_SELECT} WHERE w.wheel_id = ?1 ORDER BY p.time_s DESC, p.id DESC LIMIT ?2"
+            ),
+            params![wheel_id, last],
+        )?;
+        if let (Some(h), Some(newest)) = (window.hours, out.first().map(|p| p.time_s)) {
+            out.retain(|p| p.time_s >= newest - h * 3600.0);
+        }
+        out.reverse();
+        Ok(out)
+    }
+
+    /// The wheels of one pass (leading, then trailing), as `history` reads them.
+    pub(super) fn stored_wheels_of(&self, pass_id: i64) -> Result<Vec<StoredPass>, DbError> {
+        self.stored(
+            &format!("{STORED_SELECT} WHERE w.pass_id = ?1 ORDER BY w.wheel"),
+            params![pass_id],
+        )
+    }
+
+    /// The stored wheels a query of [`STORED_SELECT`] finds, in its order, each checked.
+    fn stored(&self, sql: &str, args: impl rusqlite::Params) -> Result<Vec<StoredPass>, DbError> {
+        let mut st = self.conn.prepare_cached(sql).map_err(|e| self.sql(e))?;
         let rows = st
-            .query_map(params![wheel_id, last], |r| {
+            .query_map(args, |r| {
                 Ok(RawRow {
                     pass_id: r.get(0)?,
                     time: r.get(1)?,
@@ -467,106 +525,22 @@ impl Db {
         let mut out = Vec::new();
         for row in rows {
             let row = row.map_err(|e| self.sql(e))?;
-            out.push(row.parse(&self.path)?);
+            let pass = row.pass_id;
+            out.push(row.parse().map_err(|what| DbError::Corrupt {
+                path: self.path.clone(),
+                pass,
+                what,
+            })?);
         }
-        if let (Some(h), Some(newest)) = (window.hours, out.first().map(|p| p.time_s)) {
-            out.retain(|p| p.time_s >= newest - h * 3600.0);
-        }
-        out.reverse();
         Ok(out)
     }
 }
 
-/// A row as read, checked by [`RawRow::parse`].
-struct RawRow {
-    pass_id: i64,
-    time: String,
-    time_s: f64,
-    measurement: String,
-    speed: Option<f64>,
-    bank_speed: f64,
-    bank_id: String,
-    wheel: String,
-    claim: String,
-    l0: (Option<f64>, Option<f64>),
-    severity: (Option<String>, Option<String>),
-    limit: Option<f64>,
-    space: String,
-    cells: i64,
-    boxes: Vec<u8>,
-}
-
-impl RawRow {
-    /// The stored pass, every value checked before it is trusted.
-    fn parse(self, path: &Path) -> Result<StoredPass, DbError> {
-        let bad = |what: String| DbError::Corrupt {
-            path: path.to_path_buf(),
-            pass: self.pass_id,
-            what,
-        };
-        let wheel = match self.wheel.as_str() {
-            "leading" => WheelPosition::Leading,
-            "trailing" => WheelPosition::Trailing,
-            w => return Err(bad(format!("wheel `{w}` is neither leading nor trailing"))),
-        };
-        let claim = Claim::parse(&self.claim)
-            .ok_or_else(|| bad(format!("claim `{}` unknown", self.claim)))?;
-        let space: Space = serde_json::from_str(&self.space)
-            .map_err(|e| bad(format!("space `{}`: {e}", self.space)))?;
-        let boxes = boxes_from_bytes(&self.boxes).ok_or_else(|| {
-            bad(format!(
-                "{} bytes of cells are not whole, ordered boxes",
-                self.boxes.len()
-            ))
-        })?;
-        if boxes.len() as i64 != self.cells {
-            return Err(bad(format!(
-                "{} cells stored, {} counted",
-                boxes.len(),
-                self.cells
-            )));
-        }
-        let severity = match self.severity {
-            (Some(lo), Some(hi)) => Some(SeverityRange {
-                lowest: severity_of(&lo).ok_or_else(|| bad(format!("severity `{lo}`")))?,
-                highest: severity_of(&hi).ok_or_else(|| bad(format!("severity `{hi}`")))?,
-            }),
-            _ => None,
-        };
-        if !self.time_s.is_finite() {
-            return Err(bad("time is not a finite number".into()));
-        }
-        Ok(StoredPass {
-            pass_id: self.pass_id,
-            time: self.time,
-            time_s: self.time_s,
-            measurement: self.measurement,
-            speed_km_per_h: self.speed,
-            bank_speed_km_per_h: self.bank_speed,
-            bank_id: self.bank_id,
-            wheel: WheelPass {
-                wheel,
-                claim,
-                l0_mm: self.l0.0.zip(self.l0.1).map(|(a, b)| [a, b]),
-                severity,
-                space,
-                limit_l0_mm: self.limit,
-                boxes,
-            },
-        })
-    }
-}
-
-fn severity_of(s: &str) -> Option<Severity> {
-    [
-        Severity::None,
-        Severity::Monitor,
-        Severity::Inspect,
-        Severity::Urgent,
-    ]
-    .into_iter()
-    .find(|c| c.as_str() == s)
-}
+/// The columns of a stored wheel pass, [`RawRow`]'s order.
+const STORED_SELECT: &str = "SELECT p.id, p.time, p.time_s, p.measurement, p.speed_km_per_h, p.bank_speed_km_per_h, p.bank_id,
+        w.wheel, w.claim, w.l0_min_mm, w.l0_max_mm, w.severity_lowest, w.severity_highest,
+        w.limit_l0_mm, w.space, w.cells, w.boxes
+ FROM wheel_passes w JOIN passes p ON p.id = w.pass_id";
 
 /// RFC 3339 in UTC with milliseconds of Unix seconds.
 pub(crate) fn rfc3339(time_s: f64) -> String {

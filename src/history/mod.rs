@@ -5,10 +5,15 @@
 
 pub(crate) mod consist;
 pub(crate) mod db;
+pub(crate) mod failures;
 pub(crate) mod fuse;
 mod grid;
 pub(crate) mod record;
+mod row;
+pub(crate) mod view;
 
 pub use db::{Db, DbError, StoredPass, Window};
+pub use failures::{Failure, FailureKind};
 pub use fuse::{fuse, Agreement, FusionRule, Joint};
 pub use record::{Claim, PassMeta, PassRecord, Space, WheelPass};
+pub use view::{BankUse, PassDetail, PassRow, WheelOutcome, WheelRow};

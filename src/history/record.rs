@@ -146,6 +146,7 @@ impl PassRecord {
             load_kn: id.load.as_ref().map(|l| l.wheel_load_kn),
             bogie_id: bogie_id.map(str::to_string),
             summary: id.summary.clone(),
+            result_dir: None,
         };
         let detection = id.detection.as_ref();
         PassRecord::of_parts(meta, detection, Some(id), identifier)
@@ -194,6 +195,9 @@ pub struct PassMeta {
     pub bogie_id: Option<String>,
     /// The pass's verdict in words.
     pub summary: String,
+    /// The folder its result was written into (`identification.json`, the report), when
+    /// one was.
+    pub result_dir: Option<String>,
 }
 
 /// What a pass says of `wheel`: from its detection step and, when it detected a flat, the

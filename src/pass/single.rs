@@ -25,32 +25,37 @@ pub fn refine_into(
 }
 
 /// The record of one identified measurement in the results database (keyed by the SHA-256 of
-/// `file`), stored; whether it is new.
+/// `file`; its result written into `result_dir`), stored; whether it is new.
 pub fn store_measurement(
     db: &mut Db,
     id: &Identification,
     identifier: &Identifier,
     m: &Measurement,
     file: &Path,
+    result_dir: &Path,
 ) -> Result<bool, PassError> {
-    let rec = record(id, identifier, m, file)?;
+    let rec = record(id, identifier, m, file, result_dir)?;
     store::store(db, &rec)
 }
 
-/// The record of one identified measurement, keyed by the SHA-256 of `file`, at this time.
+/// The record of one identified measurement, keyed by the SHA-256 of `file`, at this time;
+/// its result written into `result_dir`.
 pub fn record(
     id: &Identification,
     identifier: &Identifier,
     m: &Measurement,
     file: &Path,
+    result_dir: &Path,
 ) -> Result<PassRecord, PassError> {
-    Ok(PassRecord::of(
+    let mut rec = PassRecord::of(
         id,
         identifier,
         m.bogie_id.as_deref(),
         store::pass_key(&[file], "")?,
         crate::history::db::now_s(),
-    ))
+    );
+    rec.meta.result_dir = Some(result_dir.display().to_string());
+    Ok(rec)
 }
 
 /// What one pass of a single measurement gave: its identification (refined when asked),
@@ -87,7 +92,7 @@ pub fn identify_file(
         source: Box::new(source.into()),
     })?;
     let stored = match db {
-        Some(db) => Some(store_measurement(db, &id, identifier, &m, path)?),
+        Some(db) => Some(store_measurement(db, &id, identifier, &m, path, out)?),
         None => None,
     };
     Ok(Pass {

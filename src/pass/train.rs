@@ -108,12 +108,14 @@ pub struct Stored {
 }
 
 /// Stores every bogie of a train pass in the results database (each bogie a pass, keyed by
-/// the recording, its triggers and the bogie's place).
+/// the recording, its triggers and the bogie's place); `result_dir`: where the train's table
+/// was written, when it was.
 pub fn store_train(
     db: &mut Db,
     members: &Members,
     pass: &TrainPass,
     files: &[&Path],
+    result_dir: Option<&Path>,
 ) -> Result<Stored, PassError> {
     let time_s = crate::history::db::now_s();
     let result = &pass.result;
@@ -133,6 +135,7 @@ pub fn store_train(
                 .identification
                 .as_ref()
                 .map_or_else(|| "No flat detected.".to_string(), |id| id.summary.clone()),
+            result_dir: result_dir.map(|d| d.display().to_string()),
         };
         let rec = PassRecord::of_parts(
             meta,

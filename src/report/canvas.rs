@@ -175,6 +175,25 @@ pub(crate) fn render_png(
     })
 }
 
+/// Draws an SVG of `size` with `draw` (on a white background) into a string, for a page
+/// that embeds it. Checks the font first (legends are measured with it).
+pub(crate) fn render_svg(
+    size: (u32, u32),
+    draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> DrawResult,
+) -> DrawResult<String> {
+    if !ensure_font() {
+        return Err("the embedded font could not be registered".into());
+    }
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, size).into_drawing_area();
+        root.fill(&WHITE).map_err(msg)?;
+        draw(&root)?;
+        root.present().map_err(msg)?;
+    }
+    Ok(out)
+}
+
 /// Escapes `&`, `<`, `>`, `"` and `'` for HTML text and attribute values: the one escaper
 /// of every page the report writes.
 pub(crate) fn escape_html(s: &str) -> String {

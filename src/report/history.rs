@@ -2,9 +2,10 @@
 //! the same as JSON, and the trend figure (each pass's L0 range over time, the joint range,
 //! the class limits).
 
-use super::canvas::{msg, render_png};
+use super::canvas::{msg, render_png, render_svg, DrawResult};
 use super::PlotError;
 use crate::history::{Joint, StoredPass};
+use plotters::coord::Shift;
 use plotters::prelude::*;
 use serde::Serialize;
 use std::path::Path;
@@ -110,10 +111,24 @@ impl HistoryReport {
     }
 }
 
+/// The size of the trend figure (pixels).
+const TREND_SIZE: (u32, u32) = (1200, 700);
+
+/// Draws the trend ([`trend_on`]) as a PNG, written atomically.
+pub fn draw_trend(r: &HistoryReport, path: &Path) -> Result<(), PlotError> {
+    render_png(path, TREND_SIZE, |root| trend_on(root, r))
+}
+
+/// The trend ([`trend_on`]) as an SVG document, for a page.
+// Err(String): the plotting library's message; the page says the figure could not be drawn.
+pub fn trend_svg(r: &HistoryReport) -> Result<String, String> {
+    render_svg(TREND_SIZE, |root| trend_on(root, r))
+}
+
 /// Draws the trend: each pass's L0 range (a bar at its place in the window, grey when the
 /// joint answer leaves it out), the joint L0 range (a band over the passes it is made of), the
-/// class limits (dashed). A PNG, written atomically.
-pub fn draw_trend(r: &HistoryReport, path: &Path) -> Result<(), PlotError> {
+/// class limits (dashed).
+fn trend_on<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, r: &HistoryReport) -> DrawResult {
     let top = r
         .passes
         .iter()
@@ -122,7 +137,7 @@ pub fn draw_trend(r: &HistoryReport, path: &Path) -> Result<(), PlotError> {
         .fold(r.limits_l0_mm[1] * 1.25, f64::max)
         * 1.05;
     let n = r.passes.len().max(1);
-    render_png(path, (1200, 700), |root| {
+    {
         let mut chart = ChartBuilder::on(root)
             .caption(
                 format!("wheel {}: L0 per pass and joint", r.wheel),
@@ -212,5 +227,5 @@ pub fn draw_trend(r: &HistoryReport, path: &Path) -> Result<(), PlotError> {
             .draw()
             .map_err(msg)?;
         Ok(())
-    })
+    }
 }

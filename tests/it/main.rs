@@ -28,6 +28,8 @@ mod peer;
 mod physics;
 mod refine;
 mod rough;
+mod serve;
+mod serve_browser;
 mod site;
 mod train;
 mod watch;

@@ -30,7 +30,7 @@
 //!
 //! Under the table, the bound holds with probability 1 for a good wheel (every source is a
 //! bounded uniform), so a false alarm comes only from what the table lacks; the measured
-//! false-alarm rate is in docs/identification.md.
+//! false-alarm rate is in docs/detection.md, "Measured".
 //!
 //! The **detection limit** of a pass is computed from the bank: instance `i` is surely
 //! detected by the sensors used when its noise-free departure from the flat-free prediction,

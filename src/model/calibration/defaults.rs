@@ -170,9 +170,9 @@ impl Calibration {
 
     /// This calibration with the mesh and time step of a converged reference: 40 rail elements
     /// per sleeper bay (the default: 4) and 20 coarse steps per output sample (Δt = 2·10⁻⁵ s at
-    /// 2.5 kHz; 2·10⁻⁶ s in the fine zones). A good wheel's pad forces change by at most
-    /// 0.035 kN from there to 64 elements and 40 steps (docs/performance.md); the default mesh
-    /// lies 0.05 kN from it, an independent converged implementation 0.09 kN. Used to make
+    /// 2.5 kHz; 2·10⁻⁶ s in the fine zones): a good wheel's pad forces at the default mesh
+    /// and at an independent converged implementation against it are measured in
+    /// docs/detection.md, "Measured". Used to make
     /// measurements that carry the bank's discretisation error, as a field record does.
     /// Its fine steps are 10 a coarse one whatever this calibration's (a calibration with
     /// [`Calibration::with_converged_landings`]' 100 would take 0.2 µs steps for nothing).

@@ -171,7 +171,7 @@ pub struct IntegrationParams {
     pub fine_after_strike_s: f64,
     /// Stretches of rail meshed finer than `elements_per_bay` (every bay they overlap gets
     /// their element count): where landings need a finer rail (docs/identification.md,
-    /// "Where the landing's error comes from"). None by default.
+    /// "Landings"). None by default.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub refine: Vec<RefinedSpan>,
 }
@@ -383,7 +383,7 @@ pub struct IdentificationParams {
     pub inspect_dynamic_ratio: f64,
     /// Detection before sizing (`identify::detect`): the flat-free model's own form error
     /// allowed besides the table's absolute sources, absolute part (kN). The default mesh's
-    /// good-wheel prediction lies within 0.1 kN of a converged one (docs/identification.md).
+    /// good-wheel prediction's distance to a converged one: docs/detection.md, "The test".
     pub detection_allowance_kn: f64,
     /// ... and its part proportional to the flat-free force (fraction).
     pub detection_allowance_fraction: f64,

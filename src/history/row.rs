@@ -1,0 +1,113 @@
+//! A stored wheel pass as read from the database, every value checked before it is trusted.
+
+use super::record::{boxes_from_bytes, Claim, Space, WheelPass};
+use crate::identify::{Severity, SeverityRange};
+use crate::model::WheelPosition;
+
+/// A stored pass of one wheel, as `history` reads it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StoredPass {
+    /// Row id of the pass.
+    pub pass_id: i64,
+    /// When it was identified (RFC 3339, UTC).
+    pub time: String,
+    /// The same in Unix seconds.
+    pub time_s: f64,
+    /// The measurement file.
+    pub measurement: String,
+    /// The pass's speed (km/h).
+    pub speed_km_per_h: Option<f64>,
+    /// The bank's speed (km/h).
+    pub bank_speed_km_per_h: f64,
+    /// The bank it was compared with.
+    pub bank_id: String,
+    /// What it says of the wheel.
+    pub wheel: WheelPass,
+}
+
+/// A row as read, checked by [`RawRow::parse`].
+pub(super) struct RawRow {
+    pub(super) pass_id: i64,
+    pub(super) time: String,
+    pub(super) time_s: f64,
+    pub(super) measurement: String,
+    pub(super) speed: Option<f64>,
+    pub(super) bank_speed: f64,
+    pub(super) bank_id: String,
+    pub(super) wheel: String,
+    pub(super) claim: String,
+    pub(super) l0: (Option<f64>, Option<f64>),
+    pub(super) severity: (Option<String>, Option<String>),
+    pub(super) limit: Option<f64>,
+    pub(super) space: String,
+    pub(super) cells: i64,
+    pub(super) boxes: Vec<u8>,
+}
+
+impl RawRow {
+    /// The stored pass, every value checked before it is trusted.
+    // Err(String): what is wrong; the caller names the file and the pass (`DbError::Corrupt`).
+    pub(super) fn parse(self) -> Result<StoredPass, String> {
+        let wheel = match self.wheel.as_str() {
+            "leading" => WheelPosition::Leading,
+            "trailing" => WheelPosition::Trailing,
+            w => return Err(format!("wheel `{w}` is neither leading nor trailing")),
+        };
+        let claim =
+            Claim::parse(&self.claim).ok_or_else(|| format!("claim `{}` unknown", self.claim))?;
+        let space: Space = serde_json::from_str(&self.space)
+            .map_err(|e| format!("space `{}`: {e}", self.space))?;
+        let boxes = boxes_from_bytes(&self.boxes).ok_or_else(|| {
+            format!(
+                "{} bytes of cells are not whole, ordered boxes",
+                self.boxes.len()
+            )
+        })?;
+        if boxes.len() as i64 != self.cells {
+            return Err(format!(
+                "{} cells stored, {} counted",
+                boxes.len(),
+                self.cells
+            ));
+        }
+        let severity = match self.severity {
+            (Some(lo), Some(hi)) => Some(SeverityRange {
+                lowest: severity_of(&lo).ok_or_else(|| format!("severity `{lo}`"))?,
+                highest: severity_of(&hi).ok_or_else(|| format!("severity `{hi}`"))?,
+            }),
+            _ => None,
+        };
+        if !self.time_s.is_finite() {
+            return Err("time is not a finite number".into());
+        }
+        Ok(StoredPass {
+            pass_id: self.pass_id,
+            time: self.time,
+            time_s: self.time_s,
+            measurement: self.measurement,
+            speed_km_per_h: self.speed,
+            bank_speed_km_per_h: self.bank_speed,
+            bank_id: self.bank_id,
+            wheel: WheelPass {
+                wheel,
+                claim,
+                l0_mm: self.l0.0.zip(self.l0.1).map(|(a, b)| [a, b]),
+                severity,
+                space,
+                limit_l0_mm: self.limit,
+                boxes,
+            },
+        })
+    }
+}
+
+pub(crate) fn severity_of(s: &str) -> Option<Severity> {
+    [
+        Severity::None,
+        Severity::Monitor,
+        Severity::Inspect,
+        Severity::Urgent,
+    ]
+    .into_iter()
+    .find(|c| c.as_str() == s)
+}

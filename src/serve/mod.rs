@@ -1,0 +1,81 @@
+//! `wheelflat serve`: a read-only web view of a results database for the people who watch a
+//! site — the wheels that need action first, every wheel, the passes of the last hours with
+//! their outcome, a wheel's trend and joint answer, one pass's report — each page with a JSON
+//! endpoint beside it carrying the same numbers (docs/serve.md).
+//!
+//! - [`access`]: where it may listen (localhost, or elsewhere only with a token) and the token
+//!   check.
+//! - [`state`]: the database opened read-only, a few connections kept for the requests.
+//! - [`site`], [`wheel`], [`pass`]: each page's numbers (the JSON) and its HTML.
+//! - [`layout`]: the page around them, the class colours, the refresh without reloading.
+//! - [`drawn`]: a pass's report drawn on request when its command wrote only the JSON.
+//!
+//! Reads run on the blocking pool under SQLite's write-ahead log: they never block a
+//! `watch --db` writing beside them, and every list a page shows is bounded.
+
+pub mod access;
+mod drawn;
+mod error;
+mod layout;
+mod pass;
+mod routes;
+mod site;
+pub(crate) mod state;
+mod wheel;
+
+pub use access::{check_listen, Token};
+pub use error::ServeError;
+pub use routes::router;
+pub use state::Settings;
+
+use std::net::SocketAddr;
+
+/// Serves `settings`' database on `listen` until SIGINT or SIGTERM; `ready` is told the
+/// address bound (the port when `listen` asked for port 0).
+pub fn run(
+    settings: Settings,
+    listen: SocketAddr,
+    ready: impl FnOnce(SocketAddr),
+) -> Result<(), ServeError> {
+    check_listen(listen, settings.token.is_some())?;
+    let app = router(settings)?;
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .map_err(ServeError::Runtime)?;
+    runtime.block_on(async move {
+        let listener = tokio::net::TcpListener::bind(listen)
+            .await
+            .map_err(|source| ServeError::Bind {
+                addr: listen,
+                source,
+            })?;
+        let bound = listener.local_addr().map_err(|source| ServeError::Bind {
+            addr: listen,
+            source,
+        })?;
+        ready(bound);
+        axum::serve(listener, app)
+            .with_graceful_shutdown(stopped())
+            .await
+            .map_err(ServeError::Runtime)
+    })
+}
+
+/// Resolves on SIGINT or SIGTERM.
+async fn stopped() {
+    use tokio::signal::unix::{signal, SignalKind};
+    let term = async {
+        match signal(SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    tokio::select! {
+        _ = tokio::signal::ctrl_c() => {}
+        _ = term => {}
+    }
+}
