@@ -78,6 +78,10 @@ pub(super) fn run(out: &Path, bank_dir: &Path, listen: SocketAddr) -> Result<()>
             cal.identification.inspect_l0_mm,
             cal.identification.urgent_l0_mm,
         ],
+        limits_dynamic_ratio: [
+            cal.identification.inspect_dynamic_ratio,
+            cal.identification.urgent_dynamic_ratio,
+        ],
         phi: cal.identification.phi,
         token: None,
     };

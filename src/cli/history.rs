@@ -162,7 +162,11 @@ pub(super) fn run(a: &HistoryArgs) -> Result<()> {
     };
     let wheels: Vec<_> = passes.iter().map(|p| p.wheel.clone()).collect();
     let joint = fuse(&wheels, rule, cal.identification.phi, urgent, inspect);
-    let report = HistoryReport::new(wheel, &passes, joint, [inspect, urgent]);
+    let ratios = [
+        cal.identification.inspect_dynamic_ratio,
+        cal.identification.urgent_dynamic_ratio,
+    ];
+    let report = HistoryReport::new(wheel, &passes, joint, [[inspect, urgent], ratios]);
     print!("{}", report.text());
     if let Some(out) = &a.out {
         super::create_output_folder(out)?;

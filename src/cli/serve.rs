@@ -47,6 +47,10 @@ pub(super) fn run(a: &ServeArgs) -> Result<()> {
             cal.identification.inspect_l0_mm,
             cal.identification.urgent_l0_mm,
         ],
+        limits_dynamic_ratio: [
+            cal.identification.inspect_dynamic_ratio,
+            cal.identification.urgent_dynamic_ratio,
+        ],
         phi: cal.identification.phi,
         token,
     };

@@ -71,6 +71,8 @@ CREATE INDEX passes_by_time ON passes(time_s);
 /// one text of each table.
 const UPGRADE_1_TO_2: &str = "
 ALTER TABLE passes ADD COLUMN result_dir TEXT;
+ALTER TABLE wheel_passes ADD COLUMN dynamic_ratio_min REAL;
+ALTER TABLE wheel_passes ADD COLUMN dynamic_ratio_max REAL;
 CREATE TABLE failures (
     id INTEGER PRIMARY KEY,
     time TEXT NOT NULL,
@@ -380,7 +382,7 @@ impl Db {
         for w in &rec.wheels {
             let space = serde_json::to_string(&w.space).expect("a space serialises");
             tx.execute(
-                "INSERT INTO wheel_passes (pass_id, wheel, wheel_id, claim, l0_min_mm, l0_max_mm, severity_lowest, severity_highest, limit_l0_mm, space, cells, boxes) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)",
+                "INSERT INTO wheel_passes (pass_id, wheel, wheel_id, claim, l0_min_mm, l0_max_mm, severity_lowest, severity_highest, limit_l0_mm, space, cells, boxes, dynamic_ratio_min, dynamic_ratio_max) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14)",
                 params![
                     pass_id,
                     w.wheel.name(),
@@ -393,7 +395,9 @@ impl Db {
                     w.limit_l0_mm,
                     space,
                     w.boxes.len() as i64,
-                    boxes_to_bytes(&w.boxes)
+                    boxes_to_bytes(&w.boxes),
+                    w.dynamic_ratio.map(|r| r[0]),
+                    w.dynamic_ratio.map(|r| r[1])
                 ],
             )
             .map_err(sql)?;
@@ -479,7 +483,8 @@ impl Db {
         let last = window.last.clamp(1, MAX_WINDOW_PASSES) as i64;
         let mut out = self.stored(
             &format!(
-                "{STORED_SELECT} WHERE w.wheel_id = ?1 ORDER BY p.time_s DESC, p.id DESC LIMIT ?2"
+                "{} WHERE w.wheel_id = ?1 ORDER BY p.time_s DESC, p.id DESC LIMIT ?2",
+                self.stored_select()
             ),
             params![wheel_id, last],
         )?;
@@ -493,12 +498,26 @@ impl Db {
     /// The wheels of one pass (leading, then trailing), as `history` reads them.
     pub(super) fn stored_wheels_of(&self, pass_id: i64) -> Result<Vec<StoredPass>, DbError> {
         self.stored(
-            &format!("{STORED_SELECT} WHERE w.pass_id = ?1 ORDER BY w.wheel"),
+            &format!(
+                "{} WHERE w.pass_id = ?1 ORDER BY w.wheel",
+                self.stored_select()
+            ),
             params![pass_id],
         )
     }
 
-    /// The stored wheels a query of [`STORED_SELECT`] finds, in its order, each checked.
+    /// The columns of a stored wheel pass, [`RawRow`]'s order (a version-1 file has no
+    /// dynamic ratio).
+    fn stored_select(&self) -> String {
+        let ratio = if self.version < 2 {
+            "NULL, NULL"
+        } else {
+            "w.dynamic_ratio_min, w.dynamic_ratio_max"
+        };
+        format!("{STORED_SELECT}, {ratio} {STORED_FROM}")
+    }
+
+    /// The stored wheels a query of [`Db::stored_select`] finds, in its order, each checked.
     fn stored(&self, sql: &str, args: impl rusqlite::Params) -> Result<Vec<StoredPass>, DbError> {
         let mut st = self.conn.prepare_cached(sql).map_err(|e| self.sql(e))?;
         let rows = st
@@ -519,6 +538,7 @@ impl Db {
                     space: r.get(14)?,
                     cells: r.get(15)?,
                     boxes: r.get(16)?,
+                    dynamic_ratio: (r.get(17)?, r.get(18)?),
                 })
             })
             .map_err(|e| self.sql(e))?;
@@ -536,11 +556,12 @@ impl Db {
     }
 }
 
-/// The columns of a stored wheel pass, [`RawRow`]'s order.
+/// The columns of a stored wheel pass but the dynamic ratio ([`Db::stored_select`]).
 const STORED_SELECT: &str = "SELECT p.id, p.time, p.time_s, p.measurement, p.speed_km_per_h, p.bank_speed_km_per_h, p.bank_id,
         w.wheel, w.claim, w.l0_min_mm, w.l0_max_mm, w.severity_lowest, w.severity_highest,
-        w.limit_l0_mm, w.space, w.cells, w.boxes
- FROM wheel_passes w JOIN passes p ON p.id = w.pass_id";
+        w.limit_l0_mm, w.space, w.cells, w.boxes";
+/// The tables [`STORED_SELECT`] reads.
+const STORED_FROM: &str = "FROM wheel_passes w JOIN passes p ON p.id = w.pass_id";
 
 /// RFC 3339 in UTC with milliseconds of Unix seconds.
 pub(crate) fn rfc3339(time_s: f64) -> String {

@@ -116,6 +116,10 @@ pub struct WheelPass {
     /// The surviving cells with the flat on this wheel: `[L_lo, L_hi, d_lo, d_hi, c_lo,
     /// c_hi]` (mm).
     pub boxes: Vec<[f32; 6]>,
+    /// The impact of the flat on this wheel: the range of its peak wheel–rail force over the
+    /// static wheel load (the dynamic ratio), from the bank's stored peaks of the surviving
+    /// instances; none for a wheel without a sized flat (and for passes stored before schema 2).
+    pub dynamic_ratio: Option<[f64; 2]>,
 }
 
 /// One pass of one bogie, as the results database stores it.
@@ -280,6 +284,12 @@ fn wheel_pass(
         }),
         _ => None,
     };
+    let dynamic_ratio = match claim {
+        Claim::Flat | Claim::FlatOrOther => {
+            here.and_then(|w| w.ranges.impact).map(|i| i.dynamic_ratio)
+        }
+        _ => None,
+    };
     WheelPass {
         wheel,
         claim,
@@ -288,6 +298,7 @@ fn wheel_pass(
         space,
         limit_l0_mm,
         boxes,
+        dynamic_ratio,
     }
 }
 
@@ -327,6 +338,7 @@ fn refined_wheel(
         space,
         limit_l0_mm: None,
         boxes,
+        dynamic_ratio: None,
     }
 }
 

@@ -42,6 +42,7 @@ pub(super) struct RawRow {
     pub(super) space: String,
     pub(super) cells: i64,
     pub(super) boxes: Vec<u8>,
+    pub(super) dynamic_ratio: (Option<f64>, Option<f64>),
 }
 
 impl RawRow {
@@ -77,6 +78,11 @@ impl RawRow {
             }),
             _ => None,
         };
+        if let (Some(a), Some(b)) = self.dynamic_ratio {
+            if !(a.is_finite() && b.is_finite() && a <= b) {
+                return Err(format!("dynamic ratio [{a}, {b}] is not an ordered range"));
+            }
+        }
         if !self.time_s.is_finite() {
             return Err("time is not a finite number".into());
         }
@@ -96,6 +102,11 @@ impl RawRow {
                 space,
                 limit_l0_mm: self.limit,
                 boxes,
+                dynamic_ratio: self
+                    .dynamic_ratio
+                    .0
+                    .zip(self.dynamic_ratio.1)
+                    .map(|(a, b)| [a, b]),
             },
         })
     }

@@ -31,6 +31,8 @@ pub struct PassLine {
     pub severity: Option<crate::identify::SeverityRange>,
     /// Surviving cells stored.
     pub cells: usize,
+    /// Its flat's dynamic-ratio range (peak wheel–rail force over the static load), when sized.
+    pub dynamic_ratio: Option<[f64; 2]>,
 }
 
 /// The history's JSON: the wheel, its passes, the joint answer.
@@ -44,11 +46,14 @@ pub struct HistoryReport {
     pub joint: Joint,
     /// The class limits used (mm): inspect, urgent.
     pub limits_l0_mm: [f64; 2],
+    /// The impact rule's limits on the dynamic ratio: inspect, urgent.
+    pub limits_dynamic_ratio: [f64; 2],
 }
 
 impl HistoryReport {
-    /// The report of a wheel's stored passes and their joint answer.
-    pub fn new(wheel: &str, passes: &[StoredPass], joint: Joint, limits_l0_mm: [f64; 2]) -> Self {
+    /// The report of a wheel's stored passes and their joint answer; `limits`: the class
+    /// limits on L0 (mm) and on the dynamic ratio, each inspect then urgent.
+    pub fn new(wheel: &str, passes: &[StoredPass], joint: Joint, limits: [[f64; 2]; 2]) -> Self {
         HistoryReport {
             wheel: wheel.to_string(),
             passes: passes
@@ -64,10 +69,12 @@ impl HistoryReport {
                     l0_mm: p.wheel.l0_mm,
                     severity: p.wheel.severity,
                     cells: p.wheel.boxes.len(),
+                    dynamic_ratio: p.wheel.dynamic_ratio,
                 })
                 .collect(),
             joint,
-            limits_l0_mm,
+            limits_l0_mm: limits[0],
+            limits_dynamic_ratio: limits[1],
         }
     }
 
@@ -111,8 +118,10 @@ impl HistoryReport {
     }
 }
 
-/// The size of the trend figure (pixels).
-const TREND_SIZE: (u32, u32) = (1200, 700);
+/// The size of the trend figure (pixels): L0 above, the dynamic ratio below.
+const TREND_SIZE: (u32, u32) = (1200, 900);
+/// The L0 panel's share of the figure's height (%).
+const L0_PANEL_PERCENT: u32 = 72;
 
 /// Draws the trend ([`trend_on`]) as a PNG, written atomically.
 pub fn draw_trend(r: &HistoryReport, path: &Path) -> Result<(), PlotError> {
@@ -125,10 +134,70 @@ pub fn trend_svg(r: &HistoryReport) -> Result<String, String> {
     render_svg(TREND_SIZE, |root| trend_on(root, r))
 }
 
-/// Draws the trend: each pass's L0 range (a bar at its place in the window, grey when the
-/// joint answer leaves it out), the joint L0 range (a band over the passes it is made of), the
-/// class limits (dashed).
+/// Draws the trend: L0 above ([`l0_panel`]), the impact's dynamic ratio below
+/// ([`ratio_panel`]), pass by pass on one axis.
 fn trend_on<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, r: &HistoryReport) -> DrawResult {
+    let split = root.dim_in_pixel().1 * L0_PANEL_PERCENT / 100;
+    let (upper, lower) = root.split_vertically(split);
+    l0_panel(&upper, r)?;
+    ratio_panel(&lower, r)
+}
+
+/// Each pass's dynamic-ratio range (a bar; none where the pass sized no flat on this wheel)
+/// and the impact rule's limits (dashed).
+fn ratio_panel<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, r: &HistoryReport) -> DrawResult {
+    let n = r.passes.len().max(1);
+    let top = r
+        .passes
+        .iter()
+        .filter_map(|p| p.dynamic_ratio.map(|d| d[1]))
+        .fold(r.limits_dynamic_ratio[1] * 1.25, f64::max)
+        * 1.05;
+    let mut chart = ChartBuilder::on(root)
+        .margin(20)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.5f64..n as f64 + 0.5, 0.0f64..top)
+        .map_err(msg)?;
+    chart
+        .configure_mesh()
+        .x_desc("pass (oldest first)")
+        .y_desc("dynamic ratio")
+        .x_labels(n.min(20))
+        .x_label_formatter(&|x| format!("{x:.0}"))
+        .draw()
+        .map_err(msg)?;
+    for (v, c) in [
+        (r.limits_dynamic_ratio[0], RGBColor(220, 150, 0)),
+        (r.limits_dynamic_ratio[1], RGBColor(200, 0, 0)),
+    ] {
+        chart
+            .draw_series(DashedLineSeries::new(
+                [(0.5, v), (n as f64 + 0.5, v)],
+                8,
+                5,
+                c.stroke_width(2),
+            ))
+            .map_err(msg)?;
+    }
+    for (i, p) in r.passes.iter().enumerate() {
+        if let Some(d) = p.dynamic_ratio {
+            let x = i as f64 + 1.0;
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(x - 0.08, d[0]), (x + 0.08, d[1])],
+                    RGBColor(90, 90, 90).filled(),
+                )))
+                .map_err(msg)?;
+        }
+    }
+    Ok(())
+}
+
+/// Each pass's L0 range (a bar at its place in the window, grey when the joint answer leaves
+/// it out), the joint L0 range (a band over the passes it is made of), the class limits
+/// (dashed).
+fn l0_panel<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, r: &HistoryReport) -> DrawResult {
     let top = r
         .passes
         .iter()

@@ -36,6 +36,8 @@ pub(super) struct WheelDetail {
     pub(super) space: Space,
     /// The surviving cells: `[L_lo, L_hi, d_lo, d_hi, c_lo, c_hi]` (mm).
     pub(super) cells: Vec<[f32; 6]>,
+    /// The flat's dynamic-ratio range, when sized.
+    pub(super) dynamic_ratio: Option<[f64; 2]>,
 }
 
 /// The pass page's numbers (the JSON at `/api/pass/<id>`, and the record to download).
@@ -81,6 +83,7 @@ pub(super) fn pass_view(
             limit_l0_mm: s.wheel.limit_l0_mm,
             space: s.wheel.space,
             cells: s.wheel.boxes.clone(),
+            dynamic_ratio: s.wheel.dynamic_ratio,
         })
         .collect();
     let result_files = d
@@ -188,13 +191,14 @@ pub(super) fn pass_html(v: &PassView) -> Markup {
         }
         h2 { "Wheels" }
         table id="pass-wheels" {
-            tr { th { "wheel" } th { "claim" } th { "L0" } th { "classes" } th { "detection limit" } th { "surviving cells" } }
+            tr { th { "wheel" } th { "claim" } th { "L0" } th { "classes" } th { "dynamic ratio" } th { "detection limit" } th { "surviving cells" } }
             @for w in &v.wheels {
                 tr {
                     td { @match &w.wheel_id { Some(wid) => { a href=(wheel_href(wid)) { (wid) } } None => { (w.wheel) } } }
                     td { (w.claim.as_str()) }
                     td { (l0_words(w.l0_mm)) }
                     td { (range_badges(w.severity)) }
+                    td { (w.dynamic_ratio.map_or("—".into(), |d| format!("[{:.2}, {:.2}]", d[0], d[1]))) }
                     td { (w.limit_l0_mm.map_or("—".into(), |l| format!("L0 {l:.0} mm"))) }
                     td.num { (w.cells.len()) }
                 }

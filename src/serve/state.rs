@@ -24,6 +24,8 @@ pub struct Settings {
     pub bank: Option<PathBuf>,
     /// The class limits on L0 (mm): inspect, urgent.
     pub limits_l0_mm: [f64; 2],
+    /// The impact rule's limits on the dynamic ratio: inspect, urgent.
+    pub limits_dynamic_ratio: [f64; 2],
     /// The confidence the passes are fused at.
     pub phi: f64,
     /// The token requests must show, when set.

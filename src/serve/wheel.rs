@@ -122,7 +122,12 @@ pub(super) fn wheel_view(state: &AppState, q: WheelQuery) -> Result<Option<Wheel
     let wheels: Vec<_> = passes.iter().map(|p| p.wheel.clone()).collect();
     let joint = fuse(&wheels, rule, s.phi, urgent, inspect);
     Ok(Some(WheelView {
-        report: HistoryReport::new(&q.id, &passes, joint, s.limits_l0_mm),
+        report: HistoryReport::new(
+            &q.id,
+            &passes,
+            joint,
+            [s.limits_l0_mm, s.limits_dynamic_ratio],
+        ),
         pass_ids: passes.iter().map(|p| p.pass_id).collect(),
         query: q,
     }))
@@ -159,10 +164,10 @@ pub(super) fn wheel_html(v: &WheelView) -> Markup {
             }
             "(" a href={"/api/wheel?" (q) (hours) (rule)} { "JSON" } ")."
         }
-        div.figure { img.figure src={"/wheel/trend.svg?" (q) (hours) (rule)} alt={"trend of wheel " (r.wheel)} width="1200" height="700"; }
+        div.figure { img.figure src={"/wheel/trend.svg?" (q) (hours) (rule)} alt={"trend of wheel " (r.wheel)} width="1200" height="900"; }
         h2 { "Passes (oldest first)" }
         table id="wheel-passes" {
-            tr { th { "#" } th { "time" } th { "km/h" } th { "claim" } th { "L0" } th { "classes" } th { "cells" } th { "in the joint answer" } }
+            tr { th { "#" } th { "time" } th { "km/h" } th { "claim" } th { "L0" } th { "classes" } th { "dynamic ratio" } th { "cells" } th { "in the joint answer" } }
             @for (i, p) in r.passes.iter().enumerate() {
                 tr {
                     td.num { (p.pass) }
@@ -171,6 +176,7 @@ pub(super) fn wheel_html(v: &WheelView) -> Markup {
                     td { (p.claim.as_str()) }
                     td { (l0_words(p.l0_mm)) }
                     td { (range_badges(p.severity)) }
+                    td { (p.dynamic_ratio.map_or("—".into(), |d| format!("[{:.2}, {:.2}]", d[0], d[1]))) }
                     td.num { (p.cells) }
                     td { @if r.joint.passes_used.contains(&i) { "used" } @else if r.joint.passes_silent.contains(&i) { "silent" } @else { "left out" } }
                 }

@@ -102,6 +102,7 @@ fn settings(db: &Path) -> Settings {
         db: db.to_path_buf(),
         bank: Some(bank().0.clone()),
         limits_l0_mm: [25.0, 40.0],
+        limits_dynamic_ratio: [2.0, 3.0],
         phi: 0.95,
         token: None,
     }
@@ -210,6 +211,16 @@ fn every_page_and_its_json_say_the_same_of_the_site() {
     assert_eq!(w["joint"], history["joint"], "{w}");
     assert_eq!(w["joint"]["agreement"]["kind"], "changed");
     assert_eq!(w["passes"], history["passes"]);
+    // Each pass that sized the flat on this wheel carries its impact (the dynamic ratio).
+    for p in w["passes"].as_array().unwrap() {
+        if p["claim"] == "flat" {
+            let d = &p["dynamic_ratio"];
+            assert!(
+                d[0].as_f64().unwrap() >= 1.0 && d[1].as_f64() >= d[0].as_f64(),
+                "{p}"
+            );
+        }
+    }
     let (status, _, page) = get(&app, "/wheel?id=R1%2Ftrailing", &[]);
     assert_eq!(status, StatusCode::OK);
     assert!(page.contains("CHANGED: the flat grew"), "{page}");
@@ -508,11 +519,11 @@ fn a_version_1_database_is_read_as_it_is_and_upgraded_by_a_writer() {
     let dir = tempfile::tempdir().unwrap();
     let db = dir.path().join("v1.sqlite");
     std::fs::copy(&s.db, &db).unwrap();
-    // Version 1: no failures table, no result folders.
+    // Version 1: no failures table, no result folders, no dynamic ratio.
     rusqlite::Connection::open(&db)
         .unwrap()
         .execute_batch(
-            "DROP TABLE failures; ALTER TABLE passes DROP COLUMN result_dir; PRAGMA user_version = 1;",
+            "DROP TABLE failures; ALTER TABLE passes DROP COLUMN result_dir; ALTER TABLE wheel_passes DROP COLUMN dynamic_ratio_min; ALTER TABLE wheel_passes DROP COLUMN dynamic_ratio_max; PRAGMA user_version = 1;",
         )
         .unwrap();
     let app = router(settings(&db)).unwrap();

@@ -23,6 +23,7 @@ fn flat(l: [f32; 2], d: [f32; 2]) -> WheelPass {
         space: s,
         limit_l0_mm: None,
         boxes: vec![[l[0], l[1], d[0], d[1], 0.0, 0.1]],
+        dynamic_ratio: None,
     }
 }
 
