@@ -4,6 +4,7 @@
 //! The doc comments on the fields and variants are the `--help` text; the types themselves
 //! carry plain comments so that clap does not take them for help text.
 
+use super::db_args::DbArgs;
 pub(super) use super::flat_args::FlatArgs;
 use super::format_args::{CodecArg, EncodingArg};
 use super::refine_args::RefineArgs;
@@ -351,10 +352,8 @@ pub(super) struct IdentifyArgs {
     pub no_baselines: bool,
     #[command(flatten)]
     pub refine: RefineArgs,
-    /// Also store the pass in this results database (SQLite; made when absent): its wheels'
-    /// history, when the measurement names its bogie (`# bogie_id = …`; docs/history.md).
-    #[arg(long)]
-    pub db: Option<PathBuf>,
+    #[command(flatten)]
+    pub store: DbArgs,
 }
 
 // `watch`.
@@ -387,10 +386,8 @@ pub(super) struct WatchArgs {
     pub once: bool,
     #[command(flatten)]
     pub refine: RefineArgs,
-    /// Also store every pass in this results database (SQLite; made when absent). A train
-    /// pass's bogies are named by `NAME.consist.csv` beside its recording (docs/history.md).
-    #[arg(long)]
-    pub db: Option<PathBuf>,
+    #[command(flatten)]
+    pub store: DbArgs,
 }
 
 // `audit`.

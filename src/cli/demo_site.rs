@@ -7,8 +7,9 @@ use anyhow::Result;
 use std::net::SocketAddr;
 use std::path::Path;
 use wheelflat::identify::synth::{synthesize_pass, FieldNoise};
+use wheelflat::identify::Extras;
 use wheelflat::model::Flat;
-use wheelflat::pass::single::identify_file;
+use wheelflat::pass::single::{identify_file, Request};
 use wheelflat::pass::store::open_db;
 
 /// The site's passes: name, bogie, flat (L, d, c, X_p) or a good wheel, seed, speed factor.
@@ -61,7 +62,13 @@ pub(super) fn run(out: &Path, bank_dir: &Path, listen: SocketAddr) -> Result<()>
         let file = inbox.join(format!("{name}.csv"));
         super::write_file(&file, format!("# bogie_id = {bogie}\n{csv}").as_bytes())?;
         let result = site.join("results").join(name);
-        match identify_file(&mut members, &file, None, None, &result, Some(&mut db)) {
+        let request = Request {
+            sensors: None,
+            extras: Extras::NONE,
+            refine_simulations: None,
+            out: &result,
+        };
+        match identify_file(&mut members, &file, request, Some(&mut db)) {
             Ok(pass) => println!("{name} (bogie {bogie}): {}", pass.id.summary),
             Err(e) => {
                 let e = anyhow::Error::from(e);

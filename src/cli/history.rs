@@ -4,7 +4,7 @@
 use anyhow::{Context, Result};
 use clap::Args;
 use std::path::{Path, PathBuf};
-use wheelflat::history::{fuse, Db, Failure, FailureKind, FusionRule, PassRecord, Window};
+use wheelflat::history::{fuse, Db, Failure, FailureKind, FusionRule, Window};
 use wheelflat::pass::PassError;
 use wheelflat::report::history::{draw_trend, HistoryReport};
 
@@ -59,19 +59,15 @@ fn parse_hours(s: &str) -> Result<f64, String> {
     }
 }
 
-/// The line saying where a pass was stored (`new`) or that it was in already.
-pub(super) fn stored_line(db: &Db, rec: &PassRecord, new: bool) -> String {
-    let who = rec
-        .meta
-        .bogie_id
-        .as_deref()
-        .map_or("no bogie id: not in any wheel's history".to_string(), |b| {
-            format!("bogie {b}")
-        });
+/// The line saying where a pass of `bogie` was stored (`new`) or that it was in already.
+pub(super) fn stored_line(db: &Path, bogie: Option<&str>, new: bool) -> String {
+    let who = bogie.map_or("no bogie id: not in any wheel's history".to_string(), |b| {
+        format!("bogie {b}")
+    });
     format!(
         "{} {} ({who})",
         if new { "stored in" } else { "already in" },
-        db.path().display()
+        db.display()
     )
 }
 

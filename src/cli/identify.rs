@@ -6,17 +6,14 @@ use anyhow::{Context, Result};
 use std::path::Path;
 use wheelflat::identify::synth::Truth;
 use wheelflat::identify::{Extras, Identification};
-use wheelflat::pass::single::{record, refine_into};
+use wheelflat::pass::single::{identify_measurement, Request};
 use wheelflat::report::tables::{comparison_table, identification_text};
 
 /// Identifies; writes `identification.json` and prints the verdict before anything else, then
 /// with `--report` the figures and the HTML report.
 pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
     // A database that cannot be opened is refused before any work.
-    let mut db =
-        a.db.as_deref()
-            .map(wheelflat::pass::store::open_db)
-            .transpose()?;
+    let mut db = a.store.open()?;
     let result = identify_pass(a, db.as_mut());
     if let (Err(e), Some(db)) = (&result, db.as_mut()) {
         super::history::store_failure(db, &a.input.measured, e);
@@ -37,26 +34,26 @@ fn identify_pass(a: &IdentifyArgs, db: Option<&mut wheelflat::history::Db>) -> R
     } else {
         Extras::NONE
     };
-    let mut id = identifier.identify(&m, i.sensors.as_deref(), extras)?;
-    if let Some(simulations) = a.refine.simulations() {
-        refine_into(&identifier, &mut id, simulations)?;
-    }
-    if let Some(db) = db {
-        let rec = record(&id, &identifier, &m, &i.measured, &a.out)?;
-        let new = wheelflat::pass::store::store(db, &rec)?;
-        println!("{}", super::history::stored_line(db, &rec, new));
+    let request = Request {
+        sensors: i.sensors.as_deref(),
+        extras,
+        refine_simulations: a.refine.simulations(),
+        out: &a.out,
+    };
+    let path = a.store.db.as_deref();
+    let pass = identify_measurement(&identifier, m, &i.measured, request, db)?;
+    if let (Some(new), Some(path)) = (pass.stored, path) {
+        let bogie = pass.measurement.bogie_id.as_deref();
+        println!("{}", super::history::stored_line(path, bogie, new));
     }
     if a.report {
-        return report(&id, &a.out, None);
+        return report(&pass.id, &a.out, None);
     }
-    let json = id
-        .write_json(&a.out)
-        .with_context(|| format!("cannot write the result in {}", a.out.display()))?;
-    print!("{}", identification_text(&id));
+    print!("{}", identification_text(&pass.id));
     println!(
         "wrote {}; figures and report.html: wheelflat report --from {}",
-        json.display(),
-        json.display()
+        pass.json.display(),
+        pass.json.display()
     );
     Ok(())
 }

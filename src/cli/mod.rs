@@ -13,6 +13,7 @@ mod audit;
 mod bank;
 mod calibrate;
 mod calibration;
+mod db_args;
 mod demo;
 mod demo_site;
 mod diagnose;

@@ -4,7 +4,6 @@ use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;
 use wheelflat::history::Db;
-use wheelflat::pass::store as train_db;
 use wheelflat::pass::train::{self as train_pass, Stored, TrainPass};
 
 // `train`.
@@ -28,15 +27,23 @@ pub(super) struct TrainArgs {
     /// wheels (`<bogie_id>/leading`, `…/trailing`) in the table and the results database.
     #[arg(long)]
     pub consist: Option<PathBuf>,
-    /// Also store every bogie's pass in this results database (SQLite; made when absent).
-    #[arg(long)]
-    pub db: Option<PathBuf>,
+    #[command(flatten)]
+    pub store: super::db_args::DbArgs,
 }
 
 /// Reads the recording and triggers, identifies every bogie, writes `train.csv`, `.json` and
 /// `.html` and prints the table.
 pub(super) fn run(a: &TrainArgs) -> Result<()> {
-    let mut db = a.db.as_deref().map(train_db::open_db).transpose()?;
+    let mut db = a.store.open()?;
+    let result = train_pass_of(a, db.as_mut());
+    if let (Err(e), Some(db)) = (&result, db.as_mut()) {
+        super::history::store_failure(db, &a.recording, e);
+    }
+    result
+}
+
+/// [`run`] once the results database (when asked for) is open.
+fn train_pass_of(a: &TrainArgs, db: Option<&mut Db>) -> Result<()> {
     let mut members = super::open_members(&a.bank, None)?;
     let pass = train_pass::identify_train(
         &mut members,
@@ -45,7 +52,7 @@ pub(super) fn run(a: &TrainArgs) -> Result<()> {
         a.consist.as_deref(),
         a.refine.simulations(),
     )?;
-    if let Some(db) = &mut db {
+    if let Some(db) = db {
         let stored = train_pass::store_train(
             db,
             &members,

@@ -135,14 +135,13 @@ fn identify_one(
         ));
     }
     let refine = a.refine.simulations();
-    let pass = wheelflat::pass::single::identify_file(
-        &mut open.members,
-        path,
-        a.sensors.as_deref(),
-        refine,
+    let request = wheelflat::pass::single::Request {
+        sensors: a.sensors.as_deref(),
+        extras: wheelflat::identify::Extras::NONE,
+        refine_simulations: refine,
         out,
-        db,
-    )?;
+    };
+    let pass = wheelflat::pass::single::identify_file(&mut open.members, path, request, db)?;
     let (id, m) = (&pass.id, &pass.measurement);
     let refined = id
         .refinement
@@ -234,10 +233,7 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
     }
     let (done, failed) = (a.inbox.join("done"), a.inbox.join("failed"));
     // The results database, opened once (refused before any pass when it is not one).
-    let mut db =
-        a.db.as_deref()
-            .map(wheelflat::pass::store::open_db)
-            .transpose()?;
+    let mut db = a.store.open()?;
     let mut current = open(a)?;
     println!(
         "{} watching {} with bank {} (poll {} ms)",

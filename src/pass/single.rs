@@ -6,7 +6,7 @@ use crate::history::{Db, PassRecord};
 use crate::identify::detect::family::Members;
 use crate::identify::refine::{bank_simulator, refine, RefineSettings};
 use crate::identify::{Extras, Identification, Identifier, Measurement};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Refines `id` ([`crate::identify::refine`]) with `simulations` new flats and the
 /// identifier's bank calibration, and keeps the result in `id.refinement`.
@@ -59,45 +59,80 @@ pub fn record(
 }
 
 /// What one pass of a single measurement gave: its identification (refined when asked),
-/// the measurement as read, and whether its pass was new to the database (`None`: none).
+/// the measurement as read, where its result was written, and whether its pass was new to the
+/// database (`None`: none).
 pub struct Pass {
     /// The identification.
     pub id: Identification,
     /// The measurement (its speed stated).
     pub measurement: Measurement,
+    /// `identification.json`.
+    pub json: PathBuf,
     /// Stored in the results database: new (`true`) or already in (`false`).
     pub stored: Option<bool>,
 }
 
-/// A resident identifier's pass (`watch`): reads `path`, identifies it against the member its
-/// speed and load pick, refines it with `refine_simulations` when given, writes
-/// `identification.json` into `out` and stores the pass in `db` (after the result is written,
-/// before the caller moves the input).
-pub fn identify_file(
-    members: &mut Members,
-    path: &Path,
-    sensors: Option<&[String]>,
-    refine_simulations: Option<usize>,
-    out: &Path,
+/// What a pass of one measurement asks for besides the measurement: the same request for
+/// every command that identifies one (`identify`, `watch`, `demo --serve`).
+#[derive(Debug, Clone, Copy)]
+pub struct Request<'a> {
+    /// Only these sensors (all when `None`).
+    pub sensors: Option<&'a [String]>,
+    /// What the report needs besides the answer (baselines, curves).
+    pub extras: Extras,
+    /// Refine with this many simulations (`--refine`), when given.
+    pub refine_simulations: Option<usize>,
+    /// The folder its result goes into.
+    pub out: &'a Path,
+}
+
+/// One measurement's pass against `identifier`: identified, refined when asked,
+/// `identification.json` written into the request's folder, then stored in `db` (keyed by the
+/// SHA-256 of `file`) — a pass is stored only once its result is written.
+pub fn identify_measurement(
+    identifier: &Identifier,
+    measurement: Measurement,
+    file: &Path,
+    request: Request,
     db: Option<&mut Db>,
 ) -> Result<Pass, PassError> {
-    let (m, k) = input::read_measurement(members, path, None, false)?;
-    let identifier = members.get(k);
-    let mut id = identifier.identify(&m, sensors, Extras::NONE)?;
-    if let Some(simulations) = refine_simulations {
+    let mut id = identifier.identify(&measurement, request.sensors, request.extras)?;
+    if let Some(simulations) = request.refine_simulations {
         refine_into(identifier, &mut id, simulations)?;
     }
-    id.write_json(out).map_err(|source| PassError::Report {
-        dir: out.to_path_buf(),
-        source: Box::new(source.into()),
-    })?;
+    let json = id
+        .write_json(request.out)
+        .map_err(|source| PassError::Report {
+            dir: request.out.to_path_buf(),
+            source: Box::new(source.into()),
+        })?;
     let stored = match db {
-        Some(db) => Some(store_measurement(db, &id, identifier, &m, path, out)?),
+        Some(db) => Some(store_measurement(
+            db,
+            &id,
+            identifier,
+            &measurement,
+            file,
+            request.out,
+        )?),
         None => None,
     };
     Ok(Pass {
         id,
-        measurement: m,
+        measurement,
+        json,
         stored,
     })
+}
+
+/// A resident identifier's pass (`watch`): reads `path` and identifies it
+/// ([`identify_measurement`]) against the member its speed and load pick.
+pub fn identify_file(
+    members: &mut Members,
+    path: &Path,
+    request: Request,
+    db: Option<&mut Db>,
+) -> Result<Pass, PassError> {
+    let (m, k) = input::read_measurement(members, path, None, false)?;
+    identify_measurement(members.get(k), m, path, request, db)
 }
