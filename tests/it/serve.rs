@@ -97,7 +97,7 @@ pub(crate) fn site() -> &'static Site {
     })
 }
 
-fn settings(db: &Path) -> Settings {
+pub(crate) fn settings(db: &Path) -> Settings {
     Settings {
         db: db.to_path_buf(),
         bank: Some(bank().0.clone()),
@@ -109,7 +109,7 @@ fn settings(db: &Path) -> Settings {
 }
 
 /// One request through the whole router: status, headers, body.
-fn get(
+pub(crate) fn get(
     app: &axum::Router,
     uri: &str,
     headers: &[(&str, &str)],
@@ -138,7 +138,7 @@ fn get(
     })
 }
 
-fn json(app: &axum::Router, uri: &str) -> serde_json::Value {
+pub(crate) fn json(app: &axum::Router, uri: &str) -> serde_json::Value {
     let (status, _, body) = get(app, uri, &[]);
     assert_eq!(status, StatusCode::OK, "{uri}: {body}");
     serde_json::from_str(&body).unwrap()

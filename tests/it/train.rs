@@ -199,6 +199,30 @@ fn the_commands_write_the_report_and_refuse_a_bank_that_does_not_cover_a_train()
         hist.contains("wheel 4711-5/trailing: 1 passes") && hist.contains("flat"),
         "{hist}"
     );
+    // The site's pages show the train's wheels: the flat's wheel needs action, its pass hands
+    // out the train's table.
+    let app = wheelflat::serve::router(super::serve::settings(&db)).unwrap();
+    let site = super::serve::json(&app, "/api/site");
+    assert_eq!(site["wheels_known"], 24, "{site}");
+    let flat = site["action"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|a| a["wheel"]["wheel_id"] == "4711-5/trailing")
+        .unwrap_or_else(|| panic!("4711-5/trailing needs action: {site}"));
+    let pass = flat["wheel"]["last_pass_id"].as_i64().unwrap();
+    let p = super::serve::json(&app, &format!("/api/pass/{pass}"));
+    assert!(
+        p["result_files"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|f| f == "train.html"),
+        "{p}"
+    );
+    let (status, _, _) = super::serve::get(&app, &format!("/pass/{pass}/files/train.html"), &[]);
+    assert_eq!(status.as_u16(), 200);
+
     // A consist that does not match the triggers is refused before anything is identified.
     std::fs::write(&consist, "bogie_id\nA\nB\n").unwrap();
     let err = train(
