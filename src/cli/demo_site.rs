@@ -78,20 +78,12 @@ pub(super) fn run(out: &Path, bank_dir: &Path, listen: SocketAddr) -> Result<()>
         }
     }
     drop(db);
-    let settings = wheelflat::serve::Settings {
-        db: db_path.clone(),
-        bank: Some(bank_dir.to_path_buf()),
-        limits_l0_mm: [
-            cal.identification.inspect_l0_mm,
-            cal.identification.urgent_l0_mm,
-        ],
-        limits_dynamic_ratio: [
-            cal.identification.inspect_dynamic_ratio,
-            cal.identification.urgent_dynamic_ratio,
-        ],
-        phi: cal.identification.phi,
-        token: None,
-    };
+    let settings = wheelflat::serve::Settings::new(
+        db_path.clone(),
+        Some(bank_dir.to_path_buf()),
+        &cal.identification,
+        None,
+    );
     wheelflat::serve::run(settings, listen, |bound| {
         println!(
             "\nserving {} on http://{bound}/ — open it in a browser (read-only; Ctrl-C stops)",

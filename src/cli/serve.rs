@@ -40,20 +40,7 @@ pub(super) fn run(a: &ServeArgs) -> Result<()> {
         }
         None => None,
     };
-    let settings = Settings {
-        db: a.db.clone(),
-        bank: a.bank.clone(),
-        limits_l0_mm: [
-            cal.identification.inspect_l0_mm,
-            cal.identification.urgent_l0_mm,
-        ],
-        limits_dynamic_ratio: [
-            cal.identification.inspect_dynamic_ratio,
-            cal.identification.urgent_dynamic_ratio,
-        ],
-        phi: cal.identification.phi,
-        token,
-    };
+    let settings = Settings::new(a.db.clone(), a.bank.clone(), &cal.identification, token);
     let db = a.db.display().to_string();
     wheelflat::serve::run(settings, a.listen, |bound| {
         println!("serving {db} on http://{bound}/ (read-only; Ctrl-C stops)");

@@ -5,6 +5,7 @@
 use super::canvas::{msg, render_png, render_svg, DrawResult};
 use super::PlotError;
 use crate::history::{Joint, StoredPass};
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use serde::Serialize;
@@ -143,6 +144,22 @@ fn trend_on<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, r: &HistoryReport
     ratio_panel(&lower, r)
 }
 
+/// A panel's axes: the passes (oldest first) across, `y` up.
+fn pass_mesh<DB: DrawingBackend>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    y: &str,
+    n: usize,
+) -> DrawResult {
+    chart
+        .configure_mesh()
+        .x_desc("pass (oldest first)")
+        .y_desc(y)
+        .x_labels(n.min(20))
+        .x_label_formatter(&|x| format!("{x:.0}"))
+        .draw()
+        .map_err(msg)
+}
+
 /// Each pass's dynamic-ratio range (a bar; none where the pass sized no flat on this wheel)
 /// and the impact rule's limits (dashed).
 fn ratio_panel<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, r: &HistoryReport) -> DrawResult {
@@ -159,14 +176,7 @@ fn ratio_panel<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, r: &HistoryRep
         .y_label_area_size(70)
         .build_cartesian_2d(0.5f64..n as f64 + 0.5, 0.0f64..top)
         .map_err(msg)?;
-    chart
-        .configure_mesh()
-        .x_desc("pass (oldest first)")
-        .y_desc("dynamic ratio")
-        .x_labels(n.min(20))
-        .x_label_formatter(&|x| format!("{x:.0}"))
-        .draw()
-        .map_err(msg)?;
+    pass_mesh(&mut chart, "dynamic ratio", n)?;
     for (v, c) in [
         (r.limits_dynamic_ratio[0], RGBColor(220, 150, 0)),
         (r.limits_dynamic_ratio[1], RGBColor(200, 0, 0)),
@@ -217,14 +227,7 @@ fn l0_panel<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, r: &HistoryReport
             .y_label_area_size(70)
             .build_cartesian_2d(0.5f64..n as f64 + 0.5, 0.0f64..top)
             .map_err(msg)?;
-        chart
-            .configure_mesh()
-            .x_desc("pass (oldest first)")
-            .y_desc("fresh-flat length L0 (mm)")
-            .x_labels(n.min(20))
-            .x_label_formatter(&|x| format!("{x:.0}"))
-            .draw()
-            .map_err(msg)?;
+        pass_mesh(&mut chart, "fresh-flat length L0 (mm)", n)?;
         // The joint band over the passes it is made of.
         if let (Some(l0), Some(first), Some(last)) = (
             r.joint.l0_mm,

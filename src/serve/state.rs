@@ -32,6 +32,26 @@ pub struct Settings {
     pub token: Option<Token>,
 }
 
+impl Settings {
+    /// The settings for `db` with the class limits and φ of a calibration's rulebook
+    /// (`[maintenance]`), as `history` uses them.
+    pub fn new(
+        db: PathBuf,
+        bank: Option<PathBuf>,
+        rules: &crate::model::calibration::IdentificationParams,
+        token: Option<Token>,
+    ) -> Settings {
+        Settings {
+            db,
+            bank,
+            limits_l0_mm: [rules.inspect_l0_mm, rules.urgent_l0_mm],
+            limits_dynamic_ratio: [rules.inspect_dynamic_ratio, rules.urgent_dynamic_ratio],
+            phi: rules.phi,
+            token,
+        }
+    }
+}
+
 /// The shared state of the server.
 pub(crate) struct AppState {
     pub(crate) settings: Settings,
