@@ -3,7 +3,8 @@
 //! screenshots are checked — the wheel needing action listed first on the site page (read from
 //! the DOM Chromium built, the refresh script included), the trend figure not empty (the
 //! urgent limit's red and the pass bars' black drawn) — and kept in
-//! `target/serve-screenshots/` for a person to look at.
+//! `target/serve-screenshots/` for a person to look at. And the README's one command,
+//! `demo --serve`: its site served with the passes it says.
 
 use super::serve::site;
 use crate::common::wheelflat_path;
@@ -181,4 +182,63 @@ fn decode_entities(s: &str) -> String {
         .replace("&lt;", "<")
         .replace("&gt;", ">")
         .replace("&amp;", "&")
+}
+
+#[test]
+#[ignore = "acceptance: the demo with a 2,000-instance bank, then its site served (over HTTP, no browser), ~20 s"]
+fn the_demo_serves_its_site() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = Command::new(wheelflat_path())
+        .args([
+            "demo",
+            "--instances",
+            "2000",
+            "--serve",
+            "--listen",
+            "127.0.0.1:0",
+        ])
+        .arg("--out")
+        .arg(dir.path().join("demo"))
+        .arg("--bank")
+        .arg(dir.path().join("bank"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let stdout = std::io::BufReader::new(child.stdout.take().unwrap());
+    let mut url = None;
+    for line in stdout.lines() {
+        let line = line.unwrap();
+        if let Some(u) = line.split_whitespace().find(|w| w.starts_with("http://")) {
+            url = Some(u.trim_end_matches('/').to_string());
+            break;
+        }
+    }
+    let server = Server(child);
+    let url = url.expect("the demo says where it serves");
+    let body = ureq::get(&format!("{url}/api/site"))
+        .call()
+        .unwrap()
+        .body_mut()
+        .read_to_string()
+        .unwrap();
+    let site: serde_json::Value = serde_json::from_str(&body).unwrap();
+    assert_eq!(site["passes_stored"], 11, "{site}");
+    assert_eq!(site["wheels_known"], 8, "{site}");
+    let failures = site["failures"].as_array().unwrap();
+    assert_eq!(failures.len(), 1, "{site}");
+    assert_eq!(failures[0]["kind"], "refused");
+    let action: Vec<&str> = site["action"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["wheel"]["wheel_id"].as_str().unwrap())
+        .collect();
+    assert!(
+        action
+            .iter()
+            .all(|w| !w.starts_with("D1") && !w.starts_with("D4")),
+        "good wheels need no action: {action:?}"
+    );
+    drop(server);
 }
