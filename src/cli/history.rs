@@ -90,21 +90,12 @@ pub(super) fn store_failure(db: &mut Db, measurement: &Path, e: &anyhow::Error) 
                 )
             )
     });
-    let failure = Failure {
-        id: 0,
-        time: String::new(),
-        time_s: std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0.0, |d| d.as_secs_f64()),
-        measurement: measurement.display().to_string(),
-        bogie_id: None,
-        kind: if refused {
-            FailureKind::Refused
-        } else {
-            FailureKind::Failed
-        },
-        reason: format!("{e:#}"),
+    let kind = if refused {
+        FailureKind::Refused
+    } else {
+        FailureKind::Failed
     };
+    let failure = Failure::now(measurement.display().to_string(), kind, format!("{e:#}"));
     if let Err(store) = db.insert_failure(&failure) {
         eprintln!(
             "warning: the {} pass was not noted: {store}",

@@ -14,9 +14,8 @@
 //!   writes; both wait up to [`BUSY_TIMEOUT_MS`] for a lock.
 
 use super::record::{boxes_to_bytes, PassRecord};
-pub(super) use super::row::severity_of;
-use super::row::RawRow;
 pub use super::row::StoredPass;
+use super::row::{severity_range, RawRow};
 use crate::identify::SeverityRange;
 use rusqlite::{params, Connection, OpenFlags, OptionalExtension, TransactionBehavior};
 use std::path::{Path, PathBuf};
@@ -443,15 +442,11 @@ impl Db {
         let mut out = Vec::new();
         for row in rows {
             let (wheel_id, n, last_time, lo, hi) = row.map_err(|e| self.sql(e))?;
-            let lo = lo.as_deref().and_then(severity_of);
-            let hi = hi.as_deref().and_then(severity_of);
             out.push(WheelSummary {
                 wheel_id,
                 passes: n as usize,
                 last_time,
-                last_severity: lo
-                    .zip(hi)
-                    .map(|(lowest, highest)| SeverityRange { lowest, highest }),
+                last_severity: severity_range(lo.as_deref(), hi.as_deref()),
             });
         }
         Ok(out)

@@ -52,6 +52,23 @@ pub struct Failure {
     pub reason: String,
 }
 
+impl Failure {
+    /// A pass of `measurement` that gave no answer now, for [`Db::insert_failure`] (its row id
+    /// and RFC 3339 time are the database's).
+    pub fn now(measurement: String, kind: FailureKind, reason: String) -> Failure {
+        let time_s = super::db::now_s();
+        Failure {
+            id: 0,
+            time: rfc3339(time_s),
+            time_s,
+            measurement,
+            bogie_id: None,
+            kind,
+            reason,
+        }
+    }
+}
+
 /// The longest reason stored (characters; a longer one is cut, saying so).
 pub(crate) const MAX_REASON_CHARS: usize = 4000;
 

@@ -122,3 +122,11 @@ pub(crate) fn severity_of(s: &str) -> Option<Severity> {
     .into_iter()
     .find(|c| c.as_str() == s)
 }
+
+/// The classes of a stored range (`severity_lowest`, `severity_highest`), none when either is
+/// absent or not a class name (the lists' reading; [`RawRow::parse`] refuses a bad name).
+pub(super) fn severity_range(lo: Option<&str>, hi: Option<&str>) -> Option<SeverityRange> {
+    let lowest = severity_of(lo?)?;
+    let highest = severity_of(hi?)?;
+    Some(SeverityRange { lowest, highest })
+}

@@ -3,8 +3,9 @@
 //! wheels, one pass whole, and the banks the passes were compared with. Read-only queries
 //! over the indexes the schema has (a wheel's newest pass is its largest pass id).
 
-use super::db::{severity_of, Db, DbError, StoredPass};
+use super::db::{Db, DbError, StoredPass};
 use super::record::Claim;
+use super::row::severity_range;
 use crate::identify::SeverityRange;
 use rusqlite::{params, OptionalExtension};
 use serde::Serialize;
@@ -113,9 +114,7 @@ const PASS_COLUMNS_V2: &str = "p.id, p.time, p.time_s, p.measurement, p.bogie_id
 const PASS_COLUMNS_V1: &str = "p.id, p.time, p.time_s, p.measurement, p.bogie_id, p.bank_id, p.speed_km_per_h, p.load_kn, p.summary, NULL";
 
 fn range(lo: Option<String>, hi: Option<String>) -> Option<SeverityRange> {
-    let lowest = severity_of(&lo?)?;
-    let highest = severity_of(&hi?)?;
-    Some(SeverityRange { lowest, highest })
+    severity_range(lo.as_deref(), hi.as_deref())
 }
 
 impl Db {

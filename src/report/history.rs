@@ -216,88 +216,86 @@ fn l0_panel<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, r: &HistoryReport
         .fold(r.limits_l0_mm[1] * 1.25, f64::max)
         * 1.05;
     let n = r.passes.len().max(1);
-    {
-        let mut chart = ChartBuilder::on(root)
-            .caption(
-                format!("wheel {}: L0 per pass and joint", r.wheel),
-                ("sans-serif", 26),
-            )
-            .margin(20)
-            .x_label_area_size(50)
-            .y_label_area_size(70)
-            .build_cartesian_2d(0.5f64..n as f64 + 0.5, 0.0f64..top)
-            .map_err(msg)?;
-        pass_mesh(&mut chart, "fresh-flat length L0 (mm)", n)?;
-        // The joint band over the passes it is made of.
-        if let (Some(l0), Some(first), Some(last)) = (
-            r.joint.l0_mm,
-            r.joint.passes_used.iter().min(),
-            r.joint.passes_used.iter().max(),
-        ) {
-            let (a, b) = (*first as f64 + 0.6, *last as f64 + 1.4);
-            chart
-                .draw_series(std::iter::once(Rectangle::new(
-                    [(a, l0[0]), (b, l0[1])],
-                    RGBColor(120, 170, 230).mix(0.35).filled(),
-                )))
-                .map_err(msg)?
-                .label(format!("joint [{:.0}, {:.0}] mm", l0[0], l0[1]))
-                .legend(|(x, y)| {
-                    Rectangle::new(
-                        [(x, y - 5), (x + 15, y + 5)],
-                        RGBColor(120, 170, 230).filled(),
-                    )
-                });
-        }
-        for (name, v, c) in [
-            ("inspect", r.limits_l0_mm[0], RGBColor(220, 150, 0)),
-            ("urgent", r.limits_l0_mm[1], RGBColor(200, 0, 0)),
-        ] {
-            chart
-                .draw_series(DashedLineSeries::new(
-                    [(0.5, v), (n as f64 + 0.5, v)],
-                    8,
-                    5,
-                    c.stroke_width(2),
-                ))
-                .map_err(msg)?
-                .label(format!("{name} from {v:.0} mm"))
-                .legend(move |(x, y)| PathElement::new([(x, y), (x + 15, y)], c.stroke_width(2)));
-        }
-        for (i, p) in r.passes.iter().enumerate() {
-            let x = i as f64 + 1.0;
-            let used = r.joint.passes_used.contains(&i);
-            let colour = if used { BLACK } else { RGBColor(160, 160, 160) };
-            match p.l0_mm {
-                Some(l) => {
-                    chart
-                        .draw_series(std::iter::once(Rectangle::new(
-                            [(x - 0.08, l[0]), (x + 0.08, l[1])],
-                            colour.filled(),
-                        )))
-                        .map_err(msg)?;
-                }
-                None => {
-                    chart
-                        .draw_series(std::iter::once(Circle::new((x, 0.0), 6, colour.filled())))
-                        .map_err(msg)?;
-                }
+    let mut chart = ChartBuilder::on(root)
+        .caption(
+            format!("wheel {}: L0 per pass and joint", r.wheel),
+            ("sans-serif", 26),
+        )
+        .margin(20)
+        .x_label_area_size(50)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.5f64..n as f64 + 0.5, 0.0f64..top)
+        .map_err(msg)?;
+    pass_mesh(&mut chart, "fresh-flat length L0 (mm)", n)?;
+    // The joint band over the passes it is made of.
+    if let (Some(l0), Some(first), Some(last)) = (
+        r.joint.l0_mm,
+        r.joint.passes_used.iter().min(),
+        r.joint.passes_used.iter().max(),
+    ) {
+        let (a, b) = (*first as f64 + 0.6, *last as f64 + 1.4);
+        chart
+            .draw_series(std::iter::once(Rectangle::new(
+                [(a, l0[0]), (b, l0[1])],
+                RGBColor(120, 170, 230).mix(0.35).filled(),
+            )))
+            .map_err(msg)?
+            .label(format!("joint [{:.0}, {:.0}] mm", l0[0], l0[1]))
+            .legend(|(x, y)| {
+                Rectangle::new(
+                    [(x, y - 5), (x + 15, y + 5)],
+                    RGBColor(120, 170, 230).filled(),
+                )
+            });
+    }
+    for (name, v, c) in [
+        ("inspect", r.limits_l0_mm[0], RGBColor(220, 150, 0)),
+        ("urgent", r.limits_l0_mm[1], RGBColor(200, 0, 0)),
+    ] {
+        chart
+            .draw_series(DashedLineSeries::new(
+                [(0.5, v), (n as f64 + 0.5, v)],
+                8,
+                5,
+                c.stroke_width(2),
+            ))
+            .map_err(msg)?
+            .label(format!("{name} from {v:.0} mm"))
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 15, y)], c.stroke_width(2)));
+    }
+    for (i, p) in r.passes.iter().enumerate() {
+        let x = i as f64 + 1.0;
+        let used = r.joint.passes_used.contains(&i);
+        let colour = if used { BLACK } else { RGBColor(160, 160, 160) };
+        match p.l0_mm {
+            Some(l) => {
+                chart
+                    .draw_series(std::iter::once(Rectangle::new(
+                        [(x - 0.08, l[0]), (x + 0.08, l[1])],
+                        colour.filled(),
+                    )))
+                    .map_err(msg)?;
             }
-            chart
-                .draw_series(std::iter::once(Text::new(
-                    p.claim.as_str().to_string(),
-                    (x - 0.2, top * 0.97),
-                    ("sans-serif", 16).into_font(),
-                )))
-                .map_err(msg)?;
+            None => {
+                chart
+                    .draw_series(std::iter::once(Circle::new((x, 0.0), 6, colour.filled())))
+                    .map_err(msg)?;
+            }
         }
         chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::LowerRight)
-            .draw()
+            .draw_series(std::iter::once(Text::new(
+                p.claim.as_str().to_string(),
+                (x - 0.2, top * 0.97),
+                ("sans-serif", 16).into_font(),
+            )))
             .map_err(msg)?;
-        Ok(())
     }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::LowerRight)
+        .draw()
+        .map_err(msg)?;
+    Ok(())
 }

@@ -105,19 +105,10 @@ pub(super) fn number(v: Option<f64>, digits: usize) -> String {
     v.map_or("—".into(), |v| format!("{v:.digits$}"))
 }
 
-/// The link to a wheel's page.
+/// The link to a wheel's page (its id percent-encoded as a query value).
 pub(super) fn wheel_href(wheel_id: &str) -> String {
-    format!("/wheel?id={}", encode(wheel_id))
-}
-
-/// Percent-encodes a query value (everything but unreserved characters).
-pub(super) fn encode(s: &str) -> String {
-    s.bytes()
-        .map(|b| match b {
-            b'A'..=b'Z' | b'a'..=b'z' | b'0'..=b'9' | b'-' | b'_' | b'.' | b'~' => {
-                (b as char).to_string()
-            }
-            _ => format!("%{b:02X}"),
-        })
-        .collect()
+    let q = form_urlencoded::Serializer::new(String::new())
+        .append_pair("id", wheel_id)
+        .finish();
+    format!("/wheel?{q}")
 }
