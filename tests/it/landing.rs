@@ -5,6 +5,7 @@
 
 use wheelflat::bank::schema::sensor_axes;
 use wheelflat::model::{Calibration, CheckedCalibration, Flat, Record, Simulator};
+use wheelflat_testkit::landing::near_strikes;
 
 /// Per flat: the largest |model − reference| over the reference's peak at the samples from
 /// 1 ms before a strike to 5 ms after the flat has passed, and whether the reference lost
@@ -15,28 +16,22 @@ fn landing_errors(model: &CheckedCalibration, flats: &[Flat]) -> Vec<(f64, bool)
     let axes = sensor_axes(&cal);
     let reference = Simulator::new(&base.converged_reference().check().unwrap()).unwrap();
     let sim = Simulator::new(model).unwrap();
-    let (rate, speed) = (cal.output.sample_rate_hz, cal.speed_m_per_s());
     flats
         .iter()
         .map(|f| {
             let r = reference.run(Some(f), Record::default()).unwrap();
             let g = sim.run(Some(f), Record::default()).unwrap();
             let lost = r.contact_loss_s.iter().any(|&t| t > 0.0);
-            let zones: Vec<(f64, f64)> = r
-                .strike_times_s
-                .iter()
-                .map(|&t| (t - 1e-3, t + f.length_m() / speed + 5e-3))
-                .collect();
+            let near = near_strikes(&cal, &r, f);
             let (mut peak, mut worst) = (0.0f64, 0.0f64);
             for (s, a) in axes.iter().enumerate() {
                 let (rw, gw) = (
                     r.window(s, a.first_sample, a.samples),
                     g.window(s, a.first_sample, a.samples),
                 );
-                for (j, (x, y)) in rw.iter().zip(gw).enumerate() {
+                for ((x, y), &n) in rw.iter().zip(gw).zip(&near[s]) {
                     peak = peak.max(x.abs());
-                    let t = (a.first_sample + j) as f64 / rate;
-                    if zones.iter().any(|&(lo, hi)| lo <= t && t <= hi) {
+                    if n {
                         worst = worst.max((x - y).abs());
                     }
                 }

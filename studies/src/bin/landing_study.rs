@@ -17,6 +17,7 @@ use wheelflat::bank::schema::sensor_axes;
 use wheelflat::model::calibration::RefinedSpan;
 use wheelflat::model::{Calibration, Flat, Record, Simulator};
 use wheelflat_studies::study;
+use wheelflat_testkit::landing::near_strikes;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -45,8 +46,6 @@ fn main() {
     };
     let sim_c = Simulator::new(&conv).expect("converged model");
     let clock = Instant::now();
-    let rate = cal.output.sample_rate_hz;
-    let speed = cal.speed_m_per_s();
     // Per case: the windows, whether contact was lost, and per window which samples lie near
     // a strike (1 ms before it to 5 ms after the flat has passed).
     type Reference = (Vec<Vec<f64>>, bool, Vec<Vec<bool>>);
@@ -57,22 +56,7 @@ fn main() {
                 .run(Some(f), Record::default())
                 .expect("converged run");
             let lost = r.contact_loss_s.iter().any(|&t| t > 0.0);
-            let zones: Vec<(f64, f64)> = r
-                .strike_times_s
-                .iter()
-                .map(|&t| (t - 1e-3, t + f.length_m() / speed + 5e-3))
-                .collect();
-            let near = axes
-                .iter()
-                .map(|a| {
-                    (0..a.samples)
-                        .map(|j| {
-                            let t = (a.first_sample + j) as f64 / rate;
-                            zones.iter().any(|&(lo, hi)| lo <= t && t <= hi)
-                        })
-                        .collect()
-                })
-                .collect();
+            let near = near_strikes(&cal, &r, f);
             (window(&r), lost, near)
         })
         .collect();
