@@ -45,7 +45,11 @@ fn bench_identify(c: &mut Criterion) {
     });
 
     // One falsification pass over the whole bank with the measurement's EIP.
-    let r = id.identify(&m, Some(&sensors), quick).unwrap();
+    let whole = id.identify(&m, Some(&sensors), quick).unwrap();
+    let r = whole
+        .sizing
+        .as_ref()
+        .expect("the bench's flat is detected and sized");
     let axes = &id.bank().metadata().sensors;
     // Each EIP point's bank column, `d` samples from it (kept inside the window).
     let columns_at = |d: isize| -> Vec<usize> {
@@ -55,7 +59,7 @@ fn bench_identify(c: &mut Criterion) {
                 let cp = &r.candidates[e];
                 let s = axes
                     .iter()
-                    .position(|a| a.name == r.series[cp.series].sensor)
+                    .position(|a| a.name == whole.series[cp.series].sensor)
                     .unwrap();
                 let last = axes[s].samples as isize - 1;
                 id.bank()
@@ -93,7 +97,7 @@ fn bench_identify(c: &mut Criterion) {
                 .metadata()
                 .sensors
                 .iter()
-                .position(|a| a.name == r.series[x.series].sensor)
+                .position(|a| a.name == whole.series[x.series].sensor)
                 .unwrap();
             let cols: Vec<usize> = (x.sample - x.half_width..=x.sample + x.half_width)
                 .map(|k| id.bank().sample_index(axis, k))

@@ -38,11 +38,15 @@ fn run(bank: &Path, csv: &Path) -> Result<(), Box<dyn std::error::Error>> {
     if let Some(severity) = id.severity {
         println!("severity: {}", severity.words());
     }
-    println!(
-        "{} candidate models of {} survive; {} comparison points",
-        id.cms.len(),
-        id.bank_instances,
-        id.eip.len() + id.envelope.len()
-    );
+    // `sizing`: present when a flat was detected and the bank searched.
+    match &id.sizing {
+        Some(z) => println!(
+            "{} candidate models of {} survive; {} comparison points",
+            z.cms.len(),
+            id.bank_instances,
+            z.eip.len() + z.envelope.len()
+        ),
+        None => println!("no flat detected: the pass was not sized"),
+    }
     Ok(())
 }

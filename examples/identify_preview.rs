@@ -27,8 +27,9 @@ fn main() {
     let plain = write_identification_report(&read("preview.json"), &dir).expect("write report");
 
     let mut refuted = read("preview.json");
-    refuted.cms.clear();
-    refuted.model_class_refuted = true;
+    let sizing = refuted.sizing.as_mut().expect("the preview is sized");
+    sizing.cms.clear();
+    sizing.model_class_refuted = true;
     let refuted =
         write_identification_report(&refuted, &dir.join("refuted")).expect("write refuted report");
 

@@ -370,11 +370,15 @@ impl Judged<'_> {
 
 /// Checks stored instance `stored` against the identification `id` made by `identifier`: at
 /// every EIP, then at every envelope point (`identify::envelope`), as falsification judges it.
+/// None when the pass was not sized (no flat detected): there are no comparison points.
 pub fn check_against(
     identifier: &Identifier,
     id: &Identification,
     stored: &StoredInstance,
-) -> Result<MeasuredCheck, AuditError> {
+) -> Result<Option<MeasuredCheck>, AuditError> {
+    let Some(sizing) = &id.sizing else {
+        return Ok(None);
+    };
     let bank = identifier.bank();
     let axes = &bank.metadata().sensors;
     let axis_of = |series: usize| {
@@ -384,7 +388,7 @@ pub fn check_against(
             .expect("identified sensors are the bank's")
     };
     let i = stored.instance as usize;
-    let p = id.per_point_probability;
+    let p = sizing.per_point_probability;
     // As the identification compared: its average, its roughness.
     let cmp = id.comparison;
     let rough = id
@@ -420,17 +424,16 @@ pub fn check_against(
             .map_err(|e| AuditError::Identify(Box::new(e)))?;
         Ok(flat.chunks(n.max(1)).map(<[f32]>::to_vec).collect())
     };
-    let mut points = Vec::with_capacity(id.eip.len() + id.envelope.len());
+    let (eip, candidates) = (&sizing.eip, &sizing.candidates);
+    let mut points = Vec::with_capacity(eip.len() + sizing.envelope.len());
     // The neighbours' predictions at the EIP give the instance's own widening.
-    let cols: Vec<(usize, usize)> = id
-        .eip
+    let cols: Vec<(usize, usize)> = eip
         .iter()
-        .map(|&e| (axis_of(id.candidates[e].series), id.candidates[e].sample))
+        .map(|&e| (axis_of(candidates[e].series), candidates[e].sample))
         .collect();
     let columns = read(&cols)?;
-    for (order, (&e, (&(axis, k), col))) in id.eip.iter().zip(cols.iter().zip(&columns)).enumerate()
-    {
-        let c = &id.candidates[e];
+    for (order, (&e, (&(axis, k), col))) in eip.iter().zip(cols.iter().zip(&columns)).enumerate() {
+        let c = &candidates[e];
         let judged = Judged {
             order: order + 1,
             sensor: &axes[axis].name,
@@ -448,7 +451,7 @@ pub fn check_against(
     }
     // Envelope points: the window's extreme of the stored series, and of every instance for
     // the widening.
-    for (j, x) in id.envelope.iter().enumerate() {
+    for (j, x) in sizing.envelope.iter().enumerate() {
         let axis = axis_of(x.series);
         let window = x.sample - x.half_width..=x.sample + x.half_width;
         let data = read(&window.clone().map(|k| (axis, k)).collect::<Vec<_>>())?;
@@ -458,7 +461,7 @@ pub fn check_against(
         let own = envelope::extreme(window.map(|k| own[axis][k]), max);
         let ser = &id.series[x.series];
         let judged = Judged {
-            order: id.eip.len() + j + 1,
+            order: eip.len() + j + 1,
             sensor: &axes[axis].name,
             sample: x.sample,
             time_s: ser.t0_s + x.sample as f64 / ser.sample_rate_hz,
@@ -488,14 +491,14 @@ pub fn check_against(
             .total_cmp(&points[a].outside_by_kn)
             .then(a.cmp(&b))
     });
-    Ok(MeasuredCheck {
+    Ok(Some(MeasuredCheck {
         measurement: id.measurement.clone(),
         kept: falsified_by.is_empty(),
-        in_cms: id.cms.iter().any(|m| m.instance == stored.instance),
+        in_cms: sizing.cms.iter().any(|m| m.instance == stored.instance),
         points,
         falsified_by,
-        per_point_probability: id.per_point_probability,
-    })
+        per_point_probability: p,
+    }))
 }
 
 /// The instances `bank audit --sample K` re-simulates: K spread evenly through the bank

@@ -46,9 +46,16 @@ pub(super) fn run(a: &AuditArgs) -> Result<()> {
     let mut identification = None;
     if let Ok((identifier, m)) = &opened {
         let id = identifier.identify(m, a.sensors.as_deref(), wheelflat::identify::Extras::NONE)?;
-        let c = check_against(identifier, &id, &stored)?;
-        print!("{}", audit_table(&c));
-        check = Some(c);
+        match check_against(identifier, &id, &stored)? {
+            Some(c) => {
+                print!("{}", audit_table(&c));
+                check = Some(c);
+            }
+            None => println!(
+                "not checked against {}: no flat detected, so the pass was not sized and there are no comparison points ({})",
+                id.measurement, id.summary
+            ),
+        }
         identification = Some(id);
     }
     if let Some(out) = &a.out {

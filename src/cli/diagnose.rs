@@ -25,12 +25,12 @@ pub(super) fn run(a: &DiagnoseArgs) -> Result<()> {
     let sensors = i.sensors.as_deref();
     // The record as recorded: diagnosis asks whether the model explains it.
     let id = identifier.identify(&m, sensors, Extras::AS_RECORDED)?;
-    if id.residual_minimisation.is_none() {
+    let Some(sizing) = &id.sizing else {
         return no_flat(&identifier, &m, &id, &a.out);
-    }
+    };
     eprintln!(
         "identified: {} of {} instances kept; diagnosing (fits by re-simulation, a minute at most)",
-        id.cms.len(),
+        sizing.cms.len(),
         id.bank_instances
     );
     let opts = wheelflat::diagnose::Options {

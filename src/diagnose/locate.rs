@@ -7,7 +7,7 @@
 //! with the track positions of the bogie centre and the wheels.
 
 use crate::audit::AuditError;
-use crate::identify::{Identification, Identifier};
+use crate::identify::{Identification, Identifier, Sizing};
 use serde::{Deserialize, Serialize};
 
 /// Runs of samples outside the thresholds closer than this are one window.
@@ -71,12 +71,17 @@ pub struct Located {
     pub expected_by_chance: f64,
 }
 
-/// Locates the disagreement of identification `id` (made by `identifier`).
-pub fn locate(identifier: &Identifier, id: &Identification) -> Result<Located, AuditError> {
+/// Locates the disagreement of identification `id` (made by `identifier`; `sizing`, its
+/// sizing, names the best instance).
+pub fn locate(
+    identifier: &Identifier,
+    id: &Identification,
+    sizing: &Sizing,
+) -> Result<Located, AuditError> {
     let bank = identifier.bank();
     let meta = bank.metadata();
     let cal = &meta.calibration;
-    let best = id
+    let best = sizing
         .residual_minimisation
         .as_ref()
         .ok_or(AuditError::NoFlatDetected)?

@@ -17,7 +17,7 @@ mod stages;
 pub mod surface;
 
 use crate::audit::AuditError;
-use crate::identify::{Identification, Identifier};
+use crate::identify::{Identification, Identifier, Sizing};
 use serde::{Deserialize, Serialize};
 
 pub use locate::{locate, GapWindow, Located, SensorGap, MERGE_SAMPLES};
@@ -76,18 +76,19 @@ pub struct Stage {
 }
 
 impl Stage {
-    fn of(id: &Identification, l: &Located) -> Stage {
+    /// The numbers of identification `id` (sized as `sizing`), located as `l`.
+    fn of(id: &Identification, sizing: &Sizing, l: &Located) -> Stage {
         Stage {
             bank_id: id.bank_id.clone(),
             bank_instances: id.bank_instances,
-            cms: id.cms.len(),
-            l0_mm: id
+            cms: sizing.cms.len(),
+            l0_mm: sizing
                 .falsifications
                 .first()
                 .and_then(|f| f.ranges.as_ref())
                 .map(|r| r.l0_mm),
-            best_instance: id.residual_minimisation.as_ref().map_or(0, |r| r.instance),
-            best_l0_mm: id
+            best_instance: l.instance,
+            best_l0_mm: sizing
                 .residual_minimisation
                 .as_ref()
                 .map_or(f64::NAN, |r| r.l0_mm),
@@ -314,8 +315,9 @@ pub fn diagnose(
     observer: &dyn crate::bank::GenerateObserver,
 ) -> Result<Diagnosis, DiagnoseError> {
     let mut clock = crate::stopwatch::Stopwatch::start_s();
-    let before = locate(identifier, id)?;
-    let before_stage = Stage::of(id, &before);
+    let sizing = id.sizing.as_ref().ok_or(AuditError::NoFlatDetected)?;
+    let before = locate(identifier, id, sizing)?;
+    let before_stage = Stage::of(id, sizing, &before);
     clock.lap("locate");
     let mut out = Diagnosis {
         measurement: id.measurement.clone(),

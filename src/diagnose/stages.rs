@@ -304,8 +304,12 @@ pub(super) fn add_and_identify_again(
         a.identifier.settings().clone(),
     )?;
     let again = local.identify(a.m, a.sensors, crate::identify::Extras::AS_RECORDED)?;
-    let after = locate(&local, &again)?;
-    let after_stage = Stage::of(&again, &after);
+    let sized = again
+        .sizing
+        .as_ref()
+        .ok_or(crate::audit::AuditError::NoFlatDetected)?;
+    let after = locate(&local, &again, sized)?;
+    let after_stage = Stage::of(&again, sized, &after);
     clock.lap("identify again");
     // The bank's own calibration with the effect: what a regenerated bank is built from.
     let mut whole = cal.document().clone();

@@ -230,17 +230,19 @@ fn wheel_pass(
     if let (Some(cells), true) = (refined, detected) {
         return refined_wheel(cells, wheel, space, s);
     }
-    let here = sized.and_then(|id| id.wheel_ranges.iter().find(|w| w.wheel == wheel));
-    let other = sized.is_some_and(|id| id.wheel_ranges.iter().any(|w| w.wheel != wheel));
-    let claim = match sized {
+    // The sizing, with the identification it belongs to (its population).
+    let sizing = sized.and_then(|id| id.sizing.as_ref().map(|z| (id, z)));
+    let here = sizing.and_then(|(_, z)| z.wheel_ranges.iter().find(|w| w.wheel == wheel));
+    let other = sizing.is_some_and(|(_, z)| z.wheel_ranges.iter().any(|w| w.wheel != wheel));
+    let claim = match sizing {
         _ if !detected && unseen => Claim::NotSeen,
         _ if !detected => Claim::None,
         None => Claim::Refuted,
-        Some(id) if id.below_population => match id.population.flat_wheels.contains(&wheel) {
+        Some((id, z)) if z.below_population => match id.population.flat_wheels.contains(&wheel) {
             true => Claim::Below,
             false => Claim::None,
         },
-        Some(id) if id.model_class_refuted || id.cms.is_empty() => Claim::Refuted,
+        Some((_, z)) if z.model_class_refuted || z.cms.is_empty() => Claim::Refuted,
         Some(_) => match (here.is_some(), other) {
             (true, true) => Claim::FlatOrOther,
             (true, false) => Claim::Flat,
@@ -265,8 +267,8 @@ fn wheel_pass(
         (Claim::NotSeen, _) => (None, None),
         _ => (None, Some(SeverityRange::single(Severity::Inspect))),
     };
-    let boxes = match (claim, sized) {
-        (Claim::Flat | Claim::FlatOrOther, Some(id)) => id
+    let boxes = match (claim, sizing) {
+        (Claim::Flat | Claim::FlatOrOther, Some((_, z))) => z
             .cms
             .iter()
             .filter(|c| c.flat_wheel == wheel)

@@ -27,10 +27,11 @@ pub use domain::falsify;
 pub use input::compare;
 pub use select::envelope;
 
+pub use answer::identification::Identification;
 pub use answer::severity::{FlatVerdict, Severity, SeverityRange};
+pub use answer::sizing::Sizing;
 pub use identifier::Identifier;
 pub use input::measurement::Measurement;
-pub use result::Identification;
 
 use crate::bank::BankError;
 use crate::model::WheelPosition;
@@ -272,7 +273,7 @@ impl Identifier {
             detection,
             rule,
         };
-        let z = stages::Sizing {
+        let z = stages::SizingInput {
             m,
             extras,
             used: &used,

@@ -23,12 +23,12 @@ use super::select::entropy::{
     self, bin_into, binned_columns, greedy_joint_entropy, Binned, Selection,
 };
 use super::select::envelope::{self, EnvelopePoint};
-use super::{Detection, Extras, Identification, Identifier, IdentifyError, Measurement};
+use super::{Detection, Extras, Identification, Identifier, IdentifyError, Measurement, Sizing};
 use super::{ThresholdCurve, WheelPosition};
 use crate::stopwatch::Stopwatch;
 
 /// What the sizing stages read of the prepared measurement.
-pub(super) struct Sizing<'a> {
+pub(super) struct SizingInput<'a> {
     /// The measurement.
     pub(super) m: &'a Measurement,
     /// The optional parts asked for.
@@ -111,7 +111,7 @@ impl Identifier {
     /// impact spikes (they depend on the measurement only, so they are read together).
     pub(super) fn read_predictions<'b>(
         &self,
-        z: &Sizing<'_>,
+        z: &SizingInput<'_>,
         series: &[MeasuredSeries],
         buffer: &'b mut HugeBuffer,
         laps: &mut Stopwatch,
@@ -179,7 +179,7 @@ impl Identifier {
     /// edges) are not taken as informative.
     pub(super) fn select_points<'c>(
         &self,
-        z: &Sizing<'_>,
+        z: &SizingInput<'_>,
         read: &Read<'_>,
         bin_buffer: &'c mut HugeBuffer,
         laps: &mut Stopwatch,
@@ -246,7 +246,7 @@ impl Identifier {
     #[allow(clippy::too_many_arguments)]
     pub(super) fn judge(
         &self,
-        z: &Sizing<'_>,
+        z: &SizingInput<'_>,
         series: &[MeasuredSeries],
         read: &Read<'_>,
         selected: &Selected<'_>,
@@ -362,7 +362,7 @@ impl Identifier {
     #[allow(clippy::too_many_arguments)]
     pub(super) fn assemble(
         &self,
-        z: &Sizing<'_>,
+        z: &SizingInput<'_>,
         read: &Read<'_>,
         selected: Selected<'_>,
         judged: Judged,
@@ -503,21 +503,23 @@ impl Identifier {
             series: prepared.series,
             pip_distance: s.pip_distance,
             pips_per_series: s.pips_per_series,
-            candidates,
-            eip: selected.selection.order,
-            eip_joint_entropy_bits: selected.selection.joint_bits,
-            envelope: judged.envelope,
-            alpha_bits: selected.alpha_bits,
-            entropy_curves,
             phi: s.phi,
-            per_point_probability: judged.p_final,
-            cms,
-            falsifications,
-            wheel_ranges,
-            residual_minimisation: Some(instance(&self.params, judged.residual_best)),
-            random_subsets,
-            model_class_refuted: refuted,
-            below_population,
+            sizing: Some(Sizing {
+                candidates,
+                eip: selected.selection.order,
+                eip_joint_entropy_bits: selected.selection.joint_bits,
+                envelope: judged.envelope,
+                alpha_bits: selected.alpha_bits,
+                entropy_curves,
+                per_point_probability: judged.p_final,
+                cms,
+                falsifications,
+                wheel_ranges,
+                residual_minimisation: Some(instance(&self.params, judged.residual_best)),
+                random_subsets,
+                model_class_refuted: refuted,
+                below_population,
+            }),
             detection: Some(prepared.detection),
             roughness: Some(z.roughness.clone()),
             comparison: z.comparison,

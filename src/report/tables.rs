@@ -28,7 +28,19 @@ pub fn range_text(
 }
 
 /// The paper-style comparison table of an identification.
+/// A pass that was not sized (no flat detected) has none: a line says so (and the truth,
+/// when given).
 pub fn comparison_table(id: &Identification, truth: Option<&Truth>) -> String {
+    let truth_line = |t: &Truth| {
+        format!(
+            "truth: L0 {:.1} mm, L {:.1} mm, d {:.3} mm, X_p {:.3} m\n",
+            t.l0_mm, t.length_mm, t.depth_mm, t.impact_position_m
+        )
+    };
+    let Some(z) = &id.sizing else {
+        let none = "comparison table: none (no flat detected: the pass was not sized)\n";
+        return none.to_string() + &truth.map(truth_line).unwrap_or_default();
+    };
     let mut s = format!(
         "{:<44} {:>6} {:>7}  {:<16} {:<16} {:<14}\n",
         "method", "points", "CMS", "L0 (mm)", "L (mm)", "d (mm)"
@@ -38,12 +50,12 @@ pub fn comparison_table(id: &Identification, truth: Option<&Truth>) -> String {
         id.refinement.as_ref().map(|r| {
             (
                 format!("refined ({} simulations)", r.simulations),
-                id.falsifications.first().map_or(0, |f| f.points),
+                z.falsifications.first().map_or(0, |f| f.points),
                 r.survivors,
                 r.ranges.clone(),
             )
         });
-    let rows: Vec<(String, usize, usize, Option<ParamRanges>)> = id
+    let rows: Vec<(String, usize, usize, Option<ParamRanges>)> = z
         .falsifications
         .iter()
         .take(1)
@@ -56,7 +68,7 @@ pub fn comparison_table(id: &Identification, truth: Option<&Truth>) -> String {
             )
         })
         .chain(refined)
-        .chain(id.falsifications.iter().skip(1).map(|f| {
+        .chain(z.falsifications.iter().skip(1).map(|f| {
             (
                 f.method.to_string(),
                 f.points,
@@ -76,28 +88,25 @@ pub fn comparison_table(id: &Identification, truth: Option<&Truth>) -> String {
             range_text(ranges, |r| r.depth_mm, 2)
         );
     }
-    if let Some(rm) = &id.residual_minimisation {
+    if let Some(rm) = &z.residual_minimisation {
         s += &format!(
             "{:<44} {:>6} {:>7}  {:<16} {:<16} {:<14}\n",
             "residual minimisation (no unc.)",
-            id.eip.len(),
+            z.eip.len(),
             1,
             format!("{:.0}", rm.l0_mm),
             format!("{:.0}", rm.length_mm),
             format!("{:.2}", rm.depth_mm)
         );
     }
-    if let Some(rs) = &id.random_subsets {
+    if let Some(rs) = &z.random_subsets {
         s += &format!(
             "random subsets: {} draws of {} PIPs, CMS mean {:.1}, median {:.1}\n",
             rs.subsets, rs.size, rs.mean, rs.median
         );
     }
     if let Some(t) = truth {
-        s += &format!(
-            "truth: L0 {:.1} mm, L {:.1} mm, d {:.3} mm, X_p {:.3} m\n",
-            t.l0_mm, t.length_mm, t.depth_mm, t.impact_position_m
-        );
+        s += &truth_line(t);
         for (method, _, _, ranges) in &rows {
             if let Some(r) = ranges {
                 let inside = |x: f64, [lo, hi]: [f64; 2]| lo <= x && x <= hi;
@@ -140,7 +149,22 @@ pub fn identification_text(id: &Identification) -> String {
     if let Some(r) = &id.roughness {
         s += &format!("roughness: {}\n", r.words());
     }
-    if id.detection.as_ref().is_some_and(|d| !d.flat_detected) {
+    if let Some(z) = &id.sizing {
+        s += &format!(
+        "alignment: {} (bank time = file time {:+.4} s{}); {} EIP of {} PIPs{}; per-point probability {:.5}\n",
+        id.alignment.method,
+        id.alignment.shift_s,
+        id.alignment.correlation.map(|c| format!(", correlation {c:.4}")).unwrap_or_default(),
+        z.eip.len(),
+        z.candidates.len(),
+        if z.envelope.is_empty() {
+            String::new()
+        } else {
+            format!(" + {} envelope points", z.envelope.len())
+        },
+        z.per_point_probability
+    );
+    } else {
         s += &format!(
             "alignment: {} (bank time = file time {:+.4} s{}); no sizing\n",
             id.alignment.method,
@@ -150,21 +174,6 @@ pub fn identification_text(id: &Identification) -> String {
                 .map(|c| format!(", correlation {c:.4}"))
                 .unwrap_or_default(),
         );
-    } else {
-        s += &format!(
-        "alignment: {} (bank time = file time {:+.4} s{}); {} EIP of {} PIPs{}; per-point probability {:.5}\n",
-        id.alignment.method,
-        id.alignment.shift_s,
-        id.alignment.correlation.map(|c| format!(", correlation {c:.4}")).unwrap_or_default(),
-        id.eip.len(),
-        id.candidates.len(),
-        if id.envelope.is_empty() {
-            String::new()
-        } else {
-            format!(" + {} envelope points", id.envelope.len())
-        },
-        id.per_point_probability
-    );
     }
     let t: Vec<String> = id
         .timings_ms

@@ -220,11 +220,14 @@ pub fn identify_bogies(
                         .iter()
                         .any(|w| w.wheel == wheel && w.l0_mm.is_none())
             });
-            let (flat, l0, count, by_rule) = match &identification {
+            let sized = identification
+                .as_ref()
+                .and_then(|id| id.sizing.as_ref().map(|z| (id, z)));
+            let (flat, l0, count, by_rule) = match sized {
                 None if unseen => (FlatVerdict::NotSeen, None, 0, None),
                 None => (FlatVerdict::No, None, 0, None),
                 // Smaller than the population: on a wheel the population puts flats on.
-                Some(id) if id.below_population => {
+                Some((id, z)) if z.below_population => {
                     match id.population.flat_wheels.contains(&wheel) {
                         true => (
                             FlatVerdict::Yes,
@@ -235,8 +238,8 @@ pub fn identify_bogies(
                         false => (FlatVerdict::No, None, 0, None),
                     }
                 }
-                Some(id) if id.cms.is_empty() => (FlatVerdict::Unknown, None, 0, None),
-                Some(id) => match id.wheel_ranges.iter().find(|w| w.wheel == wheel) {
+                Some((_, z)) if z.cms.is_empty() => (FlatVerdict::Unknown, None, 0, None),
+                Some((_, z)) => match z.wheel_ranges.iter().find(|w| w.wheel == wheel) {
                     Some(w) => (
                         FlatVerdict::Yes,
                         Some(w.ranges.l0_mm),
@@ -331,7 +334,9 @@ pub fn refine_wheels(
             .filter(|w| w.bogie == bogie.bogie && w.flat == FlatVerdict::Yes)
         {
             let mut one = id.clone();
-            one.cms.retain(|c| c.flat_wheel == row.wheel);
+            if let Some(z) = one.sizing.as_mut() {
+                z.cms.retain(|c| c.flat_wheel == row.wheel);
+            }
             if let Some(r) = refine(identifier, sim, &one, settings)?.ranges {
                 row.refined_l0_mm = Some(r.l0_mm);
                 let classes = SeverityRange::of_l0(r.l0_mm, s.urgent_l0_mm, s.inspect_l0_mm);

@@ -380,9 +380,15 @@ pub fn identify_aligned(
                 .expect("an identification keeps only the bank's sensors")
         })
         .collect();
+    // A pass that was not sized (no flat detected) has no points to compare at.
+    let candidates: &[wheelflat::identify::result::CandidatePoint] =
+        base.sizing.as_ref().map_or(&[], |z| &z.candidates);
     let chosen: Vec<usize> = match which {
-        AlignedPoints::Eip => base.eip.clone(),
-        AlignedPoints::AllPips => (0..base.candidates.len()).collect(),
+        AlignedPoints::Eip => base
+            .sizing
+            .as_ref()
+            .map_or_else(Vec::new, |z| z.eip.clone()),
+        AlignedPoints::AllPips => (0..candidates.len()).collect(),
     };
     let prob = base.phi.powf(1.0 / chosen.len().max(1) as f64);
     let reach = (cells.max_shift + cells.max_offset()) as usize;
@@ -390,7 +396,7 @@ pub fn identify_aligned(
     let mut cols: Vec<usize> = Vec::new();
     let mut spans = Vec::new();
     for &c in &chosen {
-        let cp = &base.candidates[c];
+        let cp = &candidates[c];
         let len = base.series[cp.series].values_kn.len();
         let first = cp.sample.saturating_sub(reach);
         let end = (cp.sample + reach + 1).min(len);
@@ -409,7 +415,7 @@ pub fn identify_aligned(
         .iter()
         .zip(&spans)
         .map(|(&c, &(si, first, end))| {
-            let cp = &base.candidates[c];
+            let cp = &candidates[c];
             let (lo, hi) = id.thresholds(cp.measured_kn, prob);
             ShiftPoint {
                 sample: cp.sample,

@@ -124,21 +124,24 @@ pub fn run(
             ),
             None => (0, false, None),
         };
+        // A flat not detected was not sized: no CMS, no L0, no points.
+        let z = id.sizing.as_ref();
         out.push(CaseResult {
             case: k,
             truth: [t.length_mm, t.depth_mm, t.impact_position_m, t.l0_mm],
-            eip: judge(id.falsifications.first()),
-            equidistant: judge(
-                id.falsifications
+            eip: judge(z.and_then(|z| z.falsifications.first())),
+            equidistant: judge(z.and_then(|z| {
+                z.falsifications
                     .iter()
-                    .find(|f| f.method == wheelflat::identify::result::Method::Equidistant),
-            ),
-            random_mean: id.random_subsets.as_ref().map_or(f64::NAN, |r| r.mean),
-            rm_l0_mm: id
-                .residual_minimisation
-                .as_ref()
+                    .find(|f| f.method == wheelflat::identify::result::Method::Equidistant)
+            })),
+            random_mean: z
+                .and_then(|z| z.random_subsets.as_ref())
+                .map_or(f64::NAN, |r| r.mean),
+            rm_l0_mm: z
+                .and_then(|z| z.residual_minimisation.as_ref())
                 .map_or(f64::NAN, |r| r.l0_mm),
-            points: id.eip.len(),
+            points: z.map_or(0, |z| z.eip.len()),
         });
     }
     Ok(out)

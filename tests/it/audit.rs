@@ -120,13 +120,16 @@ fn the_verdict_of_every_instance_matches_the_candidate_model_set_and_names_its_p
     let syn = synth::synthesize(cal, &flat, 5, true).unwrap();
     let m = Measurement::from_csv(Path::new("m.csv"), &syn.csv, 2500.0).unwrap();
     let id = identifier.identify(&m, None, Extras::NONE).unwrap();
+    let z = id.sizing.as_ref().expect("the flat is detected and sized");
     let b = identifier.bank();
     let (mut kept, mut falsified) = (0, 0);
     for i in 0..b.instances() {
         let stored = b.read_instance(i).unwrap();
-        let c = audit::check_against(&identifier, &id, &stored).unwrap();
+        let c = audit::check_against(&identifier, &id, &stored)
+            .unwrap()
+            .expect("a sized pass has comparison points");
         assert_eq!(c.kept, c.in_cms, "instance {i}");
-        assert_eq!(c.points.len(), id.eip.len() + id.envelope.len());
+        assert_eq!(c.points.len(), z.eip.len() + z.envelope.len());
         if c.kept {
             kept += 1;
             assert!(c.falsified_by.is_empty());
@@ -152,7 +155,7 @@ fn the_verdict_of_every_instance_matches_the_candidate_model_set_and_names_its_p
             assert!((beyond - p.outside_by_kn).abs() < 1e-9);
         }
     }
-    assert_eq!(kept, id.cms.len());
+    assert_eq!(kept, z.cms.len());
     assert!(
         kept > 0 && falsified > 0,
         "kept {kept}, falsified {falsified}"
@@ -192,6 +195,33 @@ fn audit_command_writes_its_report_and_names_bad_instances() {
     assert_eq!(json["resimulation"]["identical"], true);
     assert!(json["measured"]["points"].as_array().unwrap().len() > 3);
     assert!(out_dir.join("audit.png").metadata().unwrap().len() > 10_000);
+
+    // A good wheel: no flat detected, the pass not sized, so no comparison points to check
+    // the instance at — said, not a table of none.
+    let good = synth::synthesize_pass(cal, None, 5, true, synth::FieldNoise::TABLE).unwrap();
+    let good_csv = tmp.path().join("good.csv");
+    std::fs::write(&good_csv, &good.csv).unwrap();
+    let good_dir = tmp.path().join("audit-good");
+    let out = wheelflat()
+        .arg("audit")
+        .arg("--bank")
+        .arg(dir)
+        .args(["--instance", "17", "--measured"])
+        .arg(&good_csv)
+        .arg("--out")
+        .arg(&good_dir)
+        .assert()
+        .success();
+    let text = String::from_utf8(out.get_output().stdout.clone()).unwrap();
+    assert!(text.contains("not checked against"), "{text}");
+    assert!(
+        !text.contains("KEPT") && !text.contains("FALSIFIED"),
+        "{text}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(good_dir.join("audit.json")).unwrap())
+            .unwrap();
+    assert!(json["measured"].is_null(), "{json}");
 
     let err = wheelflat()
         .arg("audit")

@@ -25,9 +25,12 @@ fn identify(bank_dir: &Path, cal: &CheckedCalibration, m: &Measurement) -> Resul
     let r = id
         .identify(m, None, Extras::NONE)
         .map_err(|e| e.to_string())?;
+    let z = r.sizing.as_ref();
     Ok(Answer {
-        eip: r.eip.clone(),
-        cms: r.cms.iter().map(|c| format!("{c:?}")).collect(),
+        eip: z.map_or_else(Vec::new, |z| z.eip.clone()),
+        cms: z.map_or_else(Vec::new, |z| {
+            z.cms.iter().map(|c| format!("{c:?}")).collect()
+        }),
         summary: r.summary,
     })
 }

@@ -21,7 +21,11 @@ fn locate(id: &Identifier, cal: &CheckedCalibration, effects: Vec<Effect>) -> di
     let syn = synth::synthesize(&hidden, &flat, 5, true).unwrap();
     let m = Measurement::from_csv(Path::new("m.csv"), &syn.csv, 2500.0).unwrap();
     let ident = id.identify(&m, None, Extras::AS_RECORDED).unwrap();
-    diagnose::locate(id, &ident).unwrap()
+    let sizing = ident
+        .sizing
+        .as_ref()
+        .expect("the flat is detected and sized");
+    diagnose::locate(id, &ident, sizing).unwrap()
 }
 
 #[test]

@@ -267,8 +267,7 @@ fn coverage_at(
             x.speed.bank_km_per_h,
             members.family().members[k].speed_km_per_h
         );
-        covered +=
-            usize::from(judge(x.falsifications[0].ranges.as_ref(), &t, false, insp, urg).holds);
+        covered += usize::from(judge(x.cms_ranges(), &t, false, insp, urg).holds);
     }
     (covered as f64 / cases as f64, covered)
 }

@@ -148,7 +148,7 @@ fn upper_l0_bound_comes_from_the_measurement_not_the_population_edge() {
         eligible += usize::from(under);
         for (k, id) in [&new, &before].into_iter().enumerate() {
             let x = id.identify(&m, None, Extras::NONE).unwrap();
-            let j = judge(x.falsifications[0].ranges.as_ref(), &t, false, insp, urg);
+            let j = judge(x.cms_ranges(), &t, false, insp, urg);
             covered[k] += usize::from(j.holds);
             below[k] += usize::from(under && j.l0_mm[1] < top - 0.05);
             if j.l0_mm[1].is_finite() {
@@ -244,7 +244,7 @@ fn a_good_wheel_is_not_an_urgent_wheel() {
     let d = r.detection.as_ref().expect("detection runs first");
     assert!(!d.flat_detected, "{}", r.summary);
     assert!(r.summary.starts_with("No flat detected"), "{}", r.summary);
-    assert!(r.cms.is_empty() && !r.model_class_refuted && r.eip.is_empty());
+    assert!(r.sizing.is_none(), "a good wheel is not sized");
     assert_eq!(d.samples, 5 * 600, "every sample of every window is tested");
     // Inside by the allowance at least: the noise reaches its bound, the model error does not.
     let worst = d.worst().unwrap();
@@ -308,7 +308,7 @@ fn detection_separates_good_wheels_from_flats_of_a_converged_model() {
                 // above this population's inspection limit (the default bank's floor, 18 mm,
                 // gives "monitor").
                 assert!(
-                    r.below_population && !r.model_class_refuted,
+                    r.below_population() && !r.model_class_refuted(),
                     "{}",
                     r.summary
                 );
@@ -320,7 +320,7 @@ fn detection_separates_good_wheels_from_flats_of_a_converged_model() {
             } else {
                 // Sized, the truth (L0 37.9 mm) inside, the impact reported beside L0: the
                 // dynamic ratio is the peak force over the static wheel load (49.54 kN).
-                let ranges = r.falsifications[0].ranges.as_ref().expect("sized");
+                let ranges = r.cms_ranges().expect("sized");
                 assert!(
                     ranges.l0_mm[0] <= 37.9 && 37.9 <= ranges.l0_mm[1],
                     "{ranges:?}"
@@ -399,7 +399,7 @@ fn coverage_survives_the_converged_reference_where_flats_land() {
     let mut covered = 0;
     for (m, t) in &cases {
         let out = id.identify(m, None, Extras::NONE).unwrap();
-        let ranges = out.falsifications[0].ranges.as_ref();
+        let ranges = out.cms_ranges();
         assert!(ranges.is_some(), "a clean case refuted: {t:?}");
         covered += usize::from(coverage::judge(ranges, t, false, insp, urg).holds);
     }
@@ -411,7 +411,7 @@ fn coverage_survives_the_converged_reference_where_flats_land() {
         .iter()
         .filter(|(m, t)| {
             let out = old.identify(m, None, Extras::NONE).unwrap();
-            coverage::judge(out.falsifications[0].ranges.as_ref(), t, false, insp, urg).holds
+            coverage::judge(out.cms_ranges(), t, false, insp, urg).holds
         })
         .count();
     eprintln!(

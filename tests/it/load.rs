@@ -134,9 +134,8 @@ fn light_cars_are_covered_by_the_member_of_their_load_and_refused_by_a_fixed_loa
         let k = family.member_for_pass(&m, None, false).unwrap();
         assert_eq!(k, 0, "case {case}: the light member");
         let out = family.get(k).identify(&m, None, Extras::NONE).unwrap();
-        assert!(!out.model_class_refuted, "case {case} refuted");
-        held +=
-            usize::from(judge(out.falsifications[0].ranges.as_ref(), &t, false, insp, urg).holds);
+        assert!(!out.model_class_refuted(), "case {case} refuted");
+        held += usize::from(judge(out.cms_ranges(), &t, false, insp, urg).holds);
         refused_by_fixed += usize::from(fixed.member_for_pass(&m, None, false).is_err());
     }
     println!("{held} of {cases} held by the family; {refused_by_fixed} refused by the fixed load");

@@ -64,9 +64,7 @@ fn held(out: &Path, names: &[(String, f64)]) -> usize {
             let text = std::fs::read_to_string(out.join(stem).join("identification.json"))
                 .unwrap_or_else(|e| panic!("{stem}: {e}"));
             let id: Identification = serde_json::from_str(&text).unwrap();
-            id.falsifications
-                .first()
-                .and_then(|f| f.ranges.as_ref())
+            id.cms_ranges()
                 .is_some_and(|r| r.l0_mm[0] <= *l0 && *l0 <= r.l0_mm[1])
         })
         .count()

@@ -22,15 +22,19 @@ struct Decision {
 
 /// The decision in the binary's `identification.json` (`eip` indexes `candidates`).
 fn rust_decision(id: &Identification) -> Decision {
+    let z = id
+        .sizing
+        .as_ref()
+        .expect("every pass here has a flat, detected and sized");
     Decision {
-        eip: id
+        eip: z
             .eip
             .iter()
-            .map(|&i| (id.candidates[i].series, id.candidates[i].sample))
+            .map(|&i| (z.candidates[i].series, z.candidates[i].sample))
             .collect(),
-        candidates: id.candidates.iter().map(|c| (c.series, c.sample)).collect(),
-        cms: id.cms.iter().map(|c| u64::from(c.instance)).collect(),
-        per_point_probability: id.per_point_probability,
+        candidates: z.candidates.iter().map(|c| (c.series, c.sample)).collect(),
+        cms: z.cms.iter().map(|c| u64::from(c.instance)).collect(),
+        per_point_probability: z.per_point_probability,
     }
 }
 

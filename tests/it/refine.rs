@@ -49,12 +49,13 @@ fn refinement_keeps_the_truth_and_narrows_the_answer() {
         let (m, t) = coverage::case(cal, flat, 11, case).unwrap();
         let out = id.identify(&m, None, Extras::NONE).unwrap();
         let r = refine(&id, &sim, &out, settings).unwrap();
-        assert_eq!(r.simulations, if out.cms.is_empty() { 0 } else { 320 });
-        for (k, ranges) in [&out.falsifications[0].ranges, &r.ranges]
+        let survivors = out.sizing.as_ref().map_or(0, |z| z.cms.len());
+        assert_eq!(r.simulations, if survivors == 0 { 0 } else { 320 });
+        for (k, ranges) in [out.cms_ranges(), r.ranges.as_ref()]
             .into_iter()
             .enumerate()
         {
-            let j = judge(ranges.as_ref(), &t, false, insp, urg);
+            let j = judge(ranges, &t, false, insp, urg);
             covered[k] += usize::from(j.holds);
             if j.l0_mm[1].is_finite() {
                 widths[k].push(j.l0_mm[1] - j.l0_mm[0]);

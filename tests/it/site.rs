@@ -99,7 +99,7 @@ fn every_pass_a_site_sees_is_answered_on_the_right_wheel_with_the_truth_kept() {
     for (k, flat) in truths.iter().enumerate() {
         let (m, t) = coverage::case(cal, flat, 31, k).unwrap();
         let out = id.identify(&m, None, Extras::NONE).unwrap();
-        let r = out.falsifications[0].ranges.as_ref();
+        let r = out.cms_ranges();
         assert!(r.is_some(), "case {k} refuted: {}", out.summary);
         let r = r.unwrap();
         held += usize::from(holds_truth(r, &t, false));

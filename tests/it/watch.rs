@@ -85,6 +85,7 @@ fn identify_gives_the_verdict_and_json_first_and_report_draws_the_figures_from_i
         read_id(&quick.join("identification.json")),
         read_id(&full.join("identification.json")),
     );
+    let (a, b) = (a.sizing.expect("sized"), b.sizing.expect("sized"));
     assert_eq!(a.cms, b.cms);
     assert!(b.random_subsets.is_some() && a.random_subsets.is_none());
 

@@ -1,7 +1,7 @@
 //! `identification.json`: the whole result as a monitoring system reads it, written beside
 //! the result type — by `identify` (before any figure), the headless `watch`, and the report.
 
-use crate::identify::answer::result::Identification;
+use crate::identify::answer::identification::Identification;
 use std::path::{Path, PathBuf};
 
 /// The result's file name in a pass's output folder.

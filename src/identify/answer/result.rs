@@ -218,95 +218,6 @@ pub struct RandomSubsets {
     pub seed: u64,
 }
 
-/// Everything one identification found.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Identification {
-    /// The measurement file.
-    pub measurement: String,
-    /// The pass's speed and the bank's (absent in results written before it was stated).
-    #[serde(default)]
-    pub speed: SpeedUse,
-    /// The wheel load the record shows, with its interval (absent in results written before
-    /// it was read; [`crate::identify::detect::load`]).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub load: Option<crate::identify::detect::load::LoadEstimate>,
-    /// Bank identity and size.
-    pub bank_id: String,
-    /// Instances in the bank.
-    pub bank_instances: usize,
-    /// Population bounds of the bank (axes of the parallel-coordinates plot).
-    pub population: ParamRanges,
-    /// Alignment to the bank's time axis.
-    pub alignment: Alignment,
-    /// The measured series used, on the bank's windows.
-    pub series: Vec<MeasuredSeries>,
-    /// PIP distance measure (`vertical`, `perpendicular`, `euclidean`).
-    pub pip_distance: crate::identify::input::pip::PipDistance,
-    /// PIPs per series.
-    pub pips_per_series: usize,
-    /// All candidate points (PIPs of all series).
-    pub candidates: Vec<CandidatePoint>,
-    /// Selected points (EIP), indices into `candidates`, in selection order.
-    pub eip: Vec<usize>,
-    /// Joint entropy after each EIP (bits).
-    pub eip_joint_entropy_bits: Vec<f64>,
-    /// Envelope points compared after the EIP (`identify::envelope`; absent in results
-    /// written before they existed).
-    #[serde(default)]
-    pub envelope: Vec<crate::identify::select::envelope::EnvelopePoint>,
-    /// Stop threshold α of the greedy selection (bits).
-    pub alpha_bits: f64,
-    /// Joint entropy curves for each sensor alone and for all together.
-    pub entropy_curves: Vec<EntropyCurve>,
-    /// Target identification probability φ.
-    pub phi: f64,
-    /// Šídák per-point probability `φ^(1/m)`.
-    pub per_point_probability: f64,
-    /// The candidate model set.
-    pub cms: Vec<InstanceParams>,
-    /// Falsification with the EIP (the method's answer) and the baselines.
-    pub falsifications: Vec<Falsification>,
-    /// The candidate model set split by the wheel carrying the flat.
-    #[serde(default)]
-    pub wheel_ranges: Vec<WheelRanges>,
-    /// Residual minimisation without uncertainties over the EIP (paper §4.4).
-    #[serde(default)]
-    pub residual_minimisation: Option<InstanceParams>,
-    /// Random subsets of the PIPs (paper §4.5).
-    pub random_subsets: Option<RandomSubsets>,
-    /// True when every instance was falsified: the model class itself is refuted.
-    pub model_class_refuted: bool,
-    /// A flat is detected, but every instance of the bank predicts a larger departure from the
-    /// good wheel than measured: the flat is smaller than the population's.
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub below_population: bool,
-    /// The detection step run before sizing (absent in results written before it existed).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub detection: Option<crate::identify::detect::Detection>,
-    /// The rough treads and rail the pass was judged with (absent in results written before
-    /// they were allowed for; [`crate::identify::detect::roughness`]).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub roughness: Option<crate::identify::detect::roughness::RoughnessUse>,
-    /// How the series (as stored here) met the bank's predictions: sample by sample, or
-    /// through the 5-sample binomial average for a pass judged as rough ([`crate::identify::input::compare`];
-    /// absent in results written before: sample by sample).
-    #[serde(default)]
-    pub comparison: crate::identify::input::compare::Comparison,
-    /// One-paragraph verdict for people.
-    pub summary: String,
-    /// Maintenance hint (severity rule stated).
-    pub maintenance_hint: String,
-    /// The severity classes the answer spans and the one acted on (its highest); absent in
-    /// results written before it was stated.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub severity: Option<crate::identify::SeverityRange>,
-    /// Wall-clock of the stages (ms).
-    pub timings_ms: Vec<(String, f64)>,
-    /// The refined answer (`identify --refine`), beside the bank-only one above.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub refinement: Option<Refinement>,
-}
-
 /// One round of a refinement.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RefineRound {
@@ -346,6 +257,24 @@ pub struct Refinement {
     /// the JSON; empty when the bank-only answer stands).
     #[serde(skip)]
     pub cells: Vec<([f64; 6], WheelPosition)>,
+}
+
+impl Refinement {
+    /// A refinement with nothing in it yet: no ranges, no survivor, no round, no words.
+    pub(crate) fn empty() -> Refinement {
+        Refinement {
+            ranges: None,
+            survivors: 0,
+            simulations: 0,
+            rounds: Vec::new(),
+            stopped_early: false,
+            time_ms: 0.0,
+            summary: String::new(),
+            maintenance_hint: String::new(),
+            severity: None,
+            cells: Vec::new(),
+        }
+    }
 }
 
 #[cfg(test)]

@@ -35,7 +35,7 @@
 mod local;
 mod points;
 
-use super::answer::result::Identification;
+use super::answer::identification::Identification;
 pub use super::answer::result::{RefineRound, Refinement};
 use super::domain::falsify::{falsify, largest_step, Resolution};
 use super::{Identifier, IdentifyError};
@@ -165,7 +165,13 @@ pub fn refine(
     let kappa = settings
         .kappa
         .unwrap_or(identifier.settings().bank_resolution);
-    let cmp = Comparison::of(identifier, id);
+    let Some(sizing) = id.sizing.as_ref() else {
+        let mut out = finish(Refinement::empty(), t0, identifier);
+        out.summary =
+            "refinement: nothing to refine (no flat detected: the pass was not sized)".into();
+        return Ok(out);
+    };
+    let cmp = Comparison::of(identifier, id, sizing);
     let method_points = cmp.at.len();
 
     // Seeds: the bank's survivors with their cells and their stored predictions. With a
@@ -184,7 +190,7 @@ pub fn refine(
         columns.extend((lo..=hi).map(|k| bank.sample_index(at.0, k)));
     }
     let stored = bank.read_columns(&columns)?;
-    let mut seeds: Vec<Member> = id
+    let mut seeds: Vec<Member> = sizing
         .cms
         .iter()
         .map(|s| {
@@ -214,14 +220,7 @@ pub fn refine(
     let mut out = Refinement {
         ranges: ranges_of(&seeds, pop, radius),
         survivors: seeds.len(),
-        simulations: 0,
-        rounds: Vec::new(),
-        stopped_early: false,
-        time_ms: 0.0,
-        summary: String::new(),
-        maintenance_hint: String::new(),
-        severity: None,
-        cells: Vec::new(),
+        ..Refinement::empty()
     };
     if seeds.is_empty() {
         return Ok(finish(out, t0, identifier));

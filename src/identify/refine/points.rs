@@ -2,7 +2,8 @@
 //! flat's values there.
 
 use crate::bank::schema::SensorAxis;
-use crate::identify::answer::result::Identification;
+use crate::identify::answer::identification::Identification;
+use crate::identify::answer::sizing::Sizing;
 use crate::identify::domain::falsify::{largest_step, Discretisation, Point};
 use crate::identify::{Identifier, IdentifyError, ThresholdCurve};
 use crate::model::{batch_key, Flat, Record, Simulator, WheelPosition, LANES};
@@ -37,14 +38,15 @@ pub(super) struct Comparison {
 }
 
 impl Comparison {
-    pub(super) fn of(identifier: &Identifier, id: &Identification) -> Comparison {
+    /// The comparison points of identification `id`, sized as `sizing`.
+    pub(super) fn of(identifier: &Identifier, id: &Identification, sizing: &Sizing) -> Comparison {
         let axes = &identifier.bank().metadata().sensors;
         let axis_of = |series: usize| {
             axes.iter()
                 .position(|a| a.name == id.series[series].sensor)
                 .expect("identified sensors are the bank's")
         };
-        let p = id.per_point_probability;
+        let p = sizing.per_point_probability;
         let rough = id
             .roughness
             .clone()
@@ -57,8 +59,8 @@ impl Comparison {
             curves: Vec::new(),
             average: id.comparison.weights(),
         };
-        for &e in &id.eip {
-            let cand = &id.candidates[e];
+        for &e in &sizing.eip {
+            let cand = &sizing.candidates[e];
             c.at.push((axis_of(cand.series), cand.sample, cand.sample, Read::Sample));
             c.measured.push(cand.measured_kn);
             c.thresholds
@@ -72,7 +74,7 @@ impl Comparison {
             c.curves
                 .push(identifier.point_curve(&rough, cand.measured_kn, ff, p));
         }
-        for x in &id.envelope {
+        for x in &sizing.envelope {
             c.at.push((
                 axis_of(x.series),
                 x.sample - x.half_width,

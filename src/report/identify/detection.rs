@@ -10,7 +10,8 @@ use super::{
     centred_note, chart_builder, draw_mesh, frame, Entry, Swatch, BAND_COLOUR, CAPTION_SIZE,
     EIP_COLOUR, MEASURED_COLOUR,
 };
-use crate::identify::answer::result::{Identification, MeasuredSeries};
+use crate::identify::answer::identification::Identification;
+use crate::identify::answer::result::MeasuredSeries;
 use crate::identify::detect::{Detection, SensorTest};
 use crate::report::canvas::{finite_runs, min_max, msg, pad_range, FONT};
 

@@ -10,7 +10,8 @@ use super::{
     annotation_font, centred_note, chart_builder, draw_mesh, eip_order, fmt_num, frame, Entry,
     Swatch, BAR_COLOUR, EIP_COLOUR, EIP_LABEL_COLOUR, PALETTE, PIP_COLOUR, REFERENCE_COLOUR,
 };
-use crate::identify::answer::result::Identification;
+use crate::identify::answer::identification::Identification;
+use crate::identify::answer::sizing::Sizing;
 use crate::report::canvas::{
     above, draw_label, finite_runs, msg, text_size, Placer, FONT, LEGEND_SIZE,
 };
@@ -18,20 +19,21 @@ use crate::report::canvas::{
 pub(super) fn render_entropy<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     id: &Identification,
+    z: &Sizing,
 ) -> DrawResult {
     let entries = [
         Entry::new("PIP", Swatch::Bar(BAR_COLOUR)),
         Entry::new("EIP (number = selection order)", Swatch::Bar(EIP_COLOUR)),
     ];
-    let n = id.candidates.len();
+    let n = z.candidates.len();
     let title = format!("Entropy of the bank's predictions at each of the {n} PIP");
     let body = frame(root, &title, &entries)?;
     if n == 0 {
         return centred_note(&body, "no PIP", PIP_COLOUR);
     }
-    let order = eip_order(id);
+    let order = eip_order(z);
     let entropy = |e: f64| if e.is_finite() && e > 0.0 { e } else { 0.0 };
-    let e_max = id
+    let e_max = z
         .candidates
         .iter()
         .map(|c| entropy(c.entropy_bits))
@@ -43,7 +45,7 @@ pub(super) fn render_entropy<DB: DrawingBackend>(
     draw_mesh(&mut chart, "PIP index", "entropy (bits)", true, false)?;
 
     chart
-        .draw_series(id.candidates.iter().enumerate().map(|(i, c)| {
+        .draw_series(z.candidates.iter().enumerate().map(|(i, c)| {
             let colour = if order[i].is_some() {
                 EIP_COLOUR
             } else {
@@ -60,7 +62,7 @@ pub(super) fn render_entropy<DB: DrawingBackend>(
     let mut placer = Placer::new(chart.plotting_area().get_pixel_range());
     // Series boundaries, when the candidates are grouped by series.
     let mut runs: Vec<(usize, usize, usize)> = Vec::new(); // (series, first, last)
-    for (i, c) in id.candidates.iter().enumerate() {
+    for (i, c) in z.candidates.iter().enumerate() {
         match runs.last_mut() {
             Some(run) if run.0 == c.series => run.2 = i,
             _ => runs.push((c.series, i, i)),
@@ -107,7 +109,7 @@ pub(super) fn render_entropy<DB: DrawingBackend>(
     for (n, i) in eips {
         let text = n.to_string();
         let size = text_size(&body, &text, &font)?;
-        let at = (i as f64, entropy(id.candidates[i].entropy_bits));
+        let at = (i as f64, entropy(z.candidates[i].entropy_bits));
         let anchor = chart.backend_coord(&at);
         let offset = placer.place(anchor, size, &above(size.0 as i32, size.1 as i32));
         draw_label(&chart, at, &text, &font, offset, size)?;
@@ -118,13 +120,14 @@ pub(super) fn render_entropy<DB: DrawingBackend>(
 pub(super) fn render_joint_entropy<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     id: &Identification,
+    z: &Sizing,
 ) -> DrawResult {
     let log2n = if id.bank_instances > 0 {
         (id.bank_instances as f64).log2()
     } else {
         f64::NAN
     };
-    let mut entries: Vec<Entry> = id
+    let mut entries: Vec<Entry> = z
         .entropy_curves
         .iter()
         .enumerate()
@@ -136,27 +139,27 @@ pub(super) fn render_joint_entropy<DB: DrawingBackend>(
             Swatch::Dashed(REFERENCE_COLOUR, 2),
         ));
     }
-    if !id.eip.is_empty() {
+    if !z.eip.is_empty() {
         entries.push(Entry::new(
             format!(
                 "{} EIP selected (stop threshold α = {} bits)",
-                id.eip.len(),
-                fmt_num(id.alpha_bits, 3)
+                z.eip.len(),
+                fmt_num(z.alpha_bits, 3)
             ),
             Swatch::Dashed(EIP_COLOUR, 2),
         ));
     }
     let body = frame(root, "Joint entropy of the selected points", &entries)?;
 
-    let n_max = id
+    let n_max = z
         .entropy_curves
         .iter()
         .map(|c| c.joint_entropy_bits.len())
         .max()
         .unwrap_or(0)
-        .max(id.eip.len())
+        .max(z.eip.len())
         .max(1);
-    let y_max = id
+    let y_max = z
         .entropy_curves
         .iter()
         .flat_map(|c| c.joint_entropy_bits.iter().copied())
@@ -175,8 +178,8 @@ pub(super) fn render_joint_entropy<DB: DrawingBackend>(
         false,
     )?;
 
-    if !id.eip.is_empty() {
-        let x = id.eip.len() as f64;
+    if !z.eip.is_empty() {
+        let x = z.eip.len() as f64;
         chart
             .plotting_area()
             .draw(&DashedPathElement::new(
@@ -199,7 +202,7 @@ pub(super) fn render_joint_entropy<DB: DrawingBackend>(
             .map_err(msg)?;
     }
     let radius = if n_max > 40 { 2 } else { 4 };
-    for (i, curve) in id.entropy_curves.iter().enumerate() {
+    for (i, curve) in z.entropy_curves.iter().enumerate() {
         let colour = PALETTE[i % PALETTE.len()];
         let points = curve
             .joint_entropy_bits

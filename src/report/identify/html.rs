@@ -5,7 +5,9 @@
 use std::fmt::{self, Write as _};
 
 use super::{fmt_num, fmt_range, Figure, JSON_FILE};
-use crate::identify::answer::result::{Identification, InstanceParams, ParamRanges};
+use crate::identify::answer::identification::Identification;
+use crate::identify::answer::result::InstanceParams;
+use crate::identify::answer::sizing::Sizing;
 use crate::report::canvas::escape_html;
 
 /// An SVG document made ready to inline in HTML: no XML prolog, doctype or leading comments,
@@ -68,18 +70,6 @@ footer { color: #777; font-size: 0.85rem; margin-top: 3em; }
 }
 "#;
 
-/// The parameter ranges of the candidate model set as the identification reports them: those
-/// of the falsification with the EIP (the method's answer, first in
-/// [`Identification::falsifications`]; the union of the instances' cells, as in
-/// [`Identification::wheel_ranges`]). None when the CMS is empty.
-///
-/// Regression: the page used to recompute them as the hull of the surviving
-/// instances, narrower than the union of cells, so `report.html` disagreed with
-/// `identification.json`.
-pub(super) fn cms_ranges(id: &Identification) -> Option<&ParamRanges> {
-    id.falsifications.first().and_then(|f| f.ranges.as_ref())
-}
-
 /// The whole HTML report; `figures` are the rendered SVGs.
 pub(super) fn render_html(
     id: &Identification,
@@ -130,7 +120,7 @@ pub(super) fn render_html(
     if let Some(l) = &id.load {
         writeln!(h, "<p class=\"meta\">{}</p>", e(&l.words()))?;
     }
-    let refuted = if id.model_class_refuted {
+    let refuted = if id.sizing.as_ref().is_some_and(|z| z.model_class_refuted) {
         " refuted"
     } else {
         ""
@@ -162,50 +152,12 @@ pub(super) fn render_html(
     }
 
     writeln!(h, "<table class=\"kv\">\n<tbody>")?;
-    let share = if id.bank_instances > 0 {
-        format!(
-            " ({} %)",
-            fmt_num(100.0 * id.cms.len() as f64 / id.bank_instances as f64, 3)
-        )
-    } else {
-        String::new()
-    };
-    writeln!(
-        h,
-        "<tr><th>Candidate model set</th><td>{} of {} instances{share}</td></tr>",
-        id.cms.len(),
-        id.bank_instances
-    )?;
-    if id.model_class_refuted {
-        writeln!(
+    match &id.sizing {
+        Some(z) => write_candidate_set(&mut h, id, z)?,
+        None => writeln!(
             h,
-            "<tr><th>Model class</th><td>refuted: every instance was falsified</td></tr>"
-        )?;
-    }
-    if let Some(r) = cms_ranges(id) {
-        for (name, range, decimals) in [
-            ("Fresh-flat length L0", r.l0_mm, 1),
-            ("Flat length L", r.length_mm, 1),
-            ("Flat depth d", r.depth_mm, 3),
-            ("Curvature c", r.curvature_mm, 3),
-            ("Impact position X_p", r.impact_position_m, 3),
-        ] {
-            let unit = if name.ends_with("X_p") { "m" } else { "mm" };
-            writeln!(
-                h,
-                "<tr><th>{}</th><td>{} {unit}</td></tr>",
-                e(name),
-                fmt_range(range, decimals)
-            )?;
-        }
-    }
-    if let Some(rm) = &id.residual_minimisation {
-        writeln!(
-            h,
-            "<tr><th>Residual minimisation</th><td>L0 = {} mm (instance {}, no uncertainties)</td></tr>",
-            fmt_num(rm.l0_mm, 1),
-            rm.instance
-        )?;
+            "<tr><th>Candidate model set</th><td>none: no flat detected, so the bank was not searched</td></tr>"
+        )?,
     }
     writeln!(h, "</tbody>\n</table>")?;
 
@@ -270,175 +222,14 @@ pub(super) fn render_html(
         figure(&mut h, Figure::Detection)?;
     }
 
-    // Comparison points.
-    writeln!(h, "<h2>Comparison points</h2>")?;
-    writeln!(h, "<table class=\"kv\">\n<tbody>")?;
-    writeln!(
-        h,
-        "<tr><th>PIP</th><td>{} per series ({} distance), {} in all</td></tr>",
-        id.pips_per_series,
-        e(id.pip_distance.as_str()),
-        id.candidates.len()
-    )?;
-    let final_h = id
-        .eip_joint_entropy_bits
-        .last()
-        .copied()
-        .unwrap_or(f64::NAN);
-    writeln!(
-        h,
-        "<tr><th>EIP</th><td>{} selected; joint entropy {} bits (stop threshold α = {} bits)</td></tr>",
-        id.eip.len(),
-        fmt_num(final_h, 2),
-        fmt_num(id.alpha_bits, 3)
-    )?;
-    if id.bank_instances > 0 {
-        writeln!(
+    match &id.sizing {
+        Some(z) => write_sizing(&mut h, id, z, &mut figure)?,
+        None => writeln!(
             h,
-            "<tr><th>log2 N</th><td>{} bits (the most any set of points can tell apart)</td></tr>",
-            fmt_num((id.bank_instances as f64).log2(), 2)
-        )?;
-    }
-    writeln!(
-        h,
-        "<tr><th>Identification probability φ</th><td>{} (Šídák: {} per point)</td></tr>",
-        fmt_num(id.phi, 3),
-        fmt_num(id.per_point_probability, 5)
-    )?;
-    writeln!(h, "</tbody>\n</table>")?;
-    writeln!(
-        h,
-        "<table>\n<thead><tr><th class=\"num\">Order</th><th class=\"num\">PIP</th><th>Sensor</th>\
-         <th class=\"num\">Time (s)</th><th class=\"num\">Measured (kN)</th><th class=\"num\">Entropy (bits)</th>\
-         <th class=\"num\">Joint entropy (bits)</th><th class=\"num\">Thresholds (kN)</th>\
-         <th class=\"num\">Typical cell widening ± (kN)</th><th class=\"num\">Admissible predictions before widening (kN)</th></tr></thead>\n<tbody>"
-    )?;
-    for (k, &ci) in id.eip.iter().enumerate() {
-        let joint = id
-            .eip_joint_entropy_bits
-            .get(k)
-            .copied()
-            .unwrap_or(f64::NAN);
-        match id.candidates.get(ci) {
-            Some(c) => {
-                let sensor = id.series.get(c.series).map_or("?", |s| s.sensor.as_str());
-                writeln!(
-                    h,
-                    "<tr><td class=\"num\">{}</td><td class=\"num\">{ci}</td><td>{}</td><td class=\"num\">{}</td>\
-                     <td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td>\
-                     <td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
-                    k + 1,
-                    e(sensor),
-                    fmt_num(c.time_s, 5),
-                    fmt_num(c.measured_kn, 2),
-                    fmt_num(c.entropy_bits, 2),
-                    fmt_num(joint, 2),
-                    fmt_range([c.threshold_low_kn, c.threshold_high_kn], 2),
-                    fmt_num(c.resolution_kn, 2),
-                    fmt_range(
-                        [c.measured_kn + c.threshold_low_kn, c.measured_kn + c.threshold_high_kn],
-                        2
-                    ),
-                )?;
-            }
-            None => writeln!(
-                h,
-                "<tr><td class=\"num\">{}</td><td class=\"num\">{ci}</td><td colspan=\"8\">not a candidate point</td></tr>",
-                k + 1
-            )?,
-        }
-    }
-    writeln!(h, "</tbody>\n</table>")?;
-    figure(&mut h, Figure::Entropy)?;
-    figure(&mut h, Figure::JointEntropy)?;
-
-    // Falsification.
-    writeln!(h, "<h2>Falsification</h2>")?;
-    writeln!(
-        h,
-        "<table>\n<thead><tr><th>Comparison points</th><th class=\"num\">Points</th><th class=\"num\">CMS</th>\
-         <th class=\"num\">L0 (mm)</th><th class=\"num\">L (mm)</th><th class=\"num\">d (mm)</th></tr></thead>\n<tbody>"
-    )?;
-    for f in &id.falsifications {
-        let (l0, l, d) = match &f.ranges {
-            Some(r) => (
-                fmt_range(r.l0_mm, 1),
-                fmt_range(r.length_mm, 1),
-                fmt_range(r.depth_mm, 3),
-            ),
-            None => ("–".to_string(), "–".to_string(), "–".to_string()),
-        };
-        writeln!(
-            h,
-            "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{l0}</td>\
-             <td class=\"num\">{l}</td><td class=\"num\">{d}</td></tr>",
-            e(&f.method.to_string()),
-            f.points,
-            f.cms_count
-        )?;
-    }
-    writeln!(h, "</tbody>\n</table>")?;
-    figure(&mut h, Figure::ParallelCoordinates)?;
-
-    if let Some(rm) = &id.residual_minimisation {
-        writeln!(h, "<h3>Residual minimisation without uncertainties</h3>")?;
-        writeln!(
-            h,
-            "<p>The instance that minimises the residual over the EIP, ignoring uncertainties \
-             (paper §4.4); compare its L0 with the CMS range.</p>"
-        )?;
-        write_instances(&mut h, std::slice::from_ref(rm))?;
-    }
-
-    if !id.cms.is_empty() {
-        const MAX_ROWS: usize = 500;
-        writeln!(
-            h,
-            "<details>\n<summary>Candidate model set: {} instances{}</summary>",
-            id.cms.len(),
-            if id.cms.len() > MAX_ROWS {
-                format!(" (first {MAX_ROWS} shown; all are in identification.json)")
-            } else {
-                String::new()
-            }
-        )?;
-        write_instances(&mut h, &id.cms[..id.cms.len().min(MAX_ROWS)])?;
-        writeln!(h, "</details>")?;
-    }
-
-    // Random subsets.
-    writeln!(h, "<h2>Random comparison points</h2>")?;
-    match &id.random_subsets {
-        Some(rs) => {
-            let eip_count = id.cms.len();
-            writeln!(h, "<table class=\"kv\">\n<tbody>")?;
-            writeln!(
-                h,
-                "<tr><th>Subsets</th><td>{} draws of {} points from the {} PIP (seed {})</td></tr>",
-                rs.subsets,
-                rs.size,
-                id.candidates.len(),
-                rs.seed
-            )?;
-            writeln!(
-                h,
-                "<tr><th>CMS size</th><td>mean {}, median {}; with the EIP: {eip_count}</td></tr>",
-                fmt_num(rs.mean, 1),
-                fmt_num(rs.median, 1)
-            )?;
-            if !rs.cms_counts.is_empty() {
-                let at_most = rs.cms_counts.iter().filter(|&&c| c <= eip_count).count();
-                writeln!(
-                    h,
-                    "<tr><th>Subsets as good as the EIP</th><td>{at_most} of {} ({} %) have a CMS of at most {eip_count}</td></tr>",
-                    rs.cms_counts.len(),
-                    fmt_num(100.0 * at_most as f64 / rs.cms_counts.len() as f64, 1)
-                )?;
-            }
-            writeln!(h, "</tbody>\n</table>")?;
-            figure(&mut h, Figure::RandomSubsets)?;
-        }
-        None => writeln!(h, "<p>Not computed for this identification.</p>")?,
+            "<h2>Comparison points</h2>\n<p>None: no flat was detected, so the pass was not sized \
+             (no comparison points, no candidate model set; the detection above gives the \
+             pass's detection limit).</p>"
+        )?,
     }
 
     // Timings.
@@ -468,6 +259,234 @@ pub(super) fn render_html(
     )?;
     writeln!(h, "</main>\n</body>\n</html>")?;
     Ok(h)
+}
+
+/// The rows of the candidate model set in the result table (a sized pass).
+fn write_candidate_set(h: &mut String, id: &Identification, z: &Sizing) -> fmt::Result {
+    let e = escape_html;
+    let share = if id.bank_instances > 0 {
+        format!(
+            " ({} %)",
+            fmt_num(100.0 * z.cms.len() as f64 / id.bank_instances as f64, 3)
+        )
+    } else {
+        String::new()
+    };
+    writeln!(
+        h,
+        "<tr><th>Candidate model set</th><td>{} of {} instances{share}</td></tr>",
+        z.cms.len(),
+        id.bank_instances
+    )?;
+    if z.model_class_refuted {
+        writeln!(
+            h,
+            "<tr><th>Model class</th><td>refuted: every instance was falsified</td></tr>"
+        )?;
+    }
+    // The ranges as the identification reports them (the union of cells), never recomputed
+    // here: the page once showed the hull of the survivors, narrower than the JSON's.
+    if let Some(r) = z.cms_ranges() {
+        for (name, range, decimals) in [
+            ("Fresh-flat length L0", r.l0_mm, 1),
+            ("Flat length L", r.length_mm, 1),
+            ("Flat depth d", r.depth_mm, 3),
+            ("Curvature c", r.curvature_mm, 3),
+            ("Impact position X_p", r.impact_position_m, 3),
+        ] {
+            let unit = if name.ends_with("X_p") { "m" } else { "mm" };
+            writeln!(
+                h,
+                "<tr><th>{}</th><td>{} {unit}</td></tr>",
+                e(name),
+                fmt_range(range, decimals)
+            )?;
+        }
+    }
+    if let Some(rm) = &z.residual_minimisation {
+        writeln!(
+            h,
+            "<tr><th>Residual minimisation</th><td>L0 = {} mm (instance {}, no uncertainties)</td></tr>",
+            fmt_num(rm.l0_mm, 1),
+            rm.instance
+        )?;
+    }
+    Ok(())
+}
+
+/// The sections of a sized pass: its comparison points, their entropies, falsification, the
+/// candidate model set and the random comparison points; `figure` inlines a figure.
+fn write_sizing(
+    h: &mut String,
+    id: &Identification,
+    z: &Sizing,
+    figure: &mut dyn FnMut(&mut String, Figure) -> fmt::Result,
+) -> fmt::Result {
+    let e = escape_html;
+    // Comparison points.
+    writeln!(h, "<h2>Comparison points</h2>")?;
+    writeln!(h, "<table class=\"kv\">\n<tbody>")?;
+    writeln!(
+        h,
+        "<tr><th>PIP</th><td>{} per series ({} distance), {} in all</td></tr>",
+        id.pips_per_series,
+        e(id.pip_distance.as_str()),
+        z.candidates.len()
+    )?;
+    let final_h = z.eip_joint_entropy_bits.last().copied().unwrap_or(f64::NAN);
+    writeln!(
+        h,
+        "<tr><th>EIP</th><td>{} selected; joint entropy {} bits (stop threshold α = {} bits)</td></tr>",
+        z.eip.len(),
+        fmt_num(final_h, 2),
+        fmt_num(z.alpha_bits, 3)
+    )?;
+    if id.bank_instances > 0 {
+        writeln!(
+            h,
+            "<tr><th>log2 N</th><td>{} bits (the most any set of points can tell apart)</td></tr>",
+            fmt_num((id.bank_instances as f64).log2(), 2)
+        )?;
+    }
+    writeln!(
+        h,
+        "<tr><th>Identification probability φ</th><td>{} (Šídák: {} per point)</td></tr>",
+        fmt_num(id.phi, 3),
+        fmt_num(z.per_point_probability, 5)
+    )?;
+    writeln!(h, "</tbody>\n</table>")?;
+    writeln!(
+        h,
+        "<table>\n<thead><tr><th class=\"num\">Order</th><th class=\"num\">PIP</th><th>Sensor</th>\
+         <th class=\"num\">Time (s)</th><th class=\"num\">Measured (kN)</th><th class=\"num\">Entropy (bits)</th>\
+         <th class=\"num\">Joint entropy (bits)</th><th class=\"num\">Thresholds (kN)</th>\
+         <th class=\"num\">Typical cell widening ± (kN)</th><th class=\"num\">Admissible predictions before widening (kN)</th></tr></thead>\n<tbody>"
+    )?;
+    for (k, &ci) in z.eip.iter().enumerate() {
+        let joint = z.eip_joint_entropy_bits.get(k).copied().unwrap_or(f64::NAN);
+        match z.candidates.get(ci) {
+            Some(c) => {
+                let sensor = id.series.get(c.series).map_or("?", |s| s.sensor.as_str());
+                writeln!(
+                    h,
+                    "<tr><td class=\"num\">{}</td><td class=\"num\">{ci}</td><td>{}</td><td class=\"num\">{}</td>\
+                     <td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td>\
+                     <td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
+                    k + 1,
+                    e(sensor),
+                    fmt_num(c.time_s, 5),
+                    fmt_num(c.measured_kn, 2),
+                    fmt_num(c.entropy_bits, 2),
+                    fmt_num(joint, 2),
+                    fmt_range([c.threshold_low_kn, c.threshold_high_kn], 2),
+                    fmt_num(c.resolution_kn, 2),
+                    fmt_range(
+                        [c.measured_kn + c.threshold_low_kn, c.measured_kn + c.threshold_high_kn],
+                        2
+                    ),
+                )?;
+            }
+            None => writeln!(
+                h,
+                "<tr><td class=\"num\">{}</td><td class=\"num\">{ci}</td><td colspan=\"8\">not a candidate point</td></tr>",
+                k + 1
+            )?,
+        }
+    }
+    writeln!(h, "</tbody>\n</table>")?;
+    figure(h, Figure::Entropy)?;
+    figure(h, Figure::JointEntropy)?;
+
+    // Falsification.
+    writeln!(h, "<h2>Falsification</h2>")?;
+    writeln!(
+        h,
+        "<table>\n<thead><tr><th>Comparison points</th><th class=\"num\">Points</th><th class=\"num\">CMS</th>\
+         <th class=\"num\">L0 (mm)</th><th class=\"num\">L (mm)</th><th class=\"num\">d (mm)</th></tr></thead>\n<tbody>"
+    )?;
+    for f in &z.falsifications {
+        let (l0, l, d) = match &f.ranges {
+            Some(r) => (
+                fmt_range(r.l0_mm, 1),
+                fmt_range(r.length_mm, 1),
+                fmt_range(r.depth_mm, 3),
+            ),
+            None => ("–".to_string(), "–".to_string(), "–".to_string()),
+        };
+        writeln!(
+            h,
+            "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{l0}</td>\
+             <td class=\"num\">{l}</td><td class=\"num\">{d}</td></tr>",
+            e(&f.method.to_string()),
+            f.points,
+            f.cms_count
+        )?;
+    }
+    writeln!(h, "</tbody>\n</table>")?;
+    figure(h, Figure::ParallelCoordinates)?;
+
+    if let Some(rm) = &z.residual_minimisation {
+        writeln!(h, "<h3>Residual minimisation without uncertainties</h3>")?;
+        writeln!(
+            h,
+            "<p>The instance that minimises the residual over the EIP, ignoring uncertainties \
+             (paper §4.4); compare its L0 with the CMS range.</p>"
+        )?;
+        write_instances(h, std::slice::from_ref(rm))?;
+    }
+
+    if !z.cms.is_empty() {
+        const MAX_ROWS: usize = 500;
+        writeln!(
+            h,
+            "<details>\n<summary>Candidate model set: {} instances{}</summary>",
+            z.cms.len(),
+            if z.cms.len() > MAX_ROWS {
+                format!(" (first {MAX_ROWS} shown; all are in identification.json)")
+            } else {
+                String::new()
+            }
+        )?;
+        write_instances(h, &z.cms[..z.cms.len().min(MAX_ROWS)])?;
+        writeln!(h, "</details>")?;
+    }
+
+    // Random subsets.
+    writeln!(h, "<h2>Random comparison points</h2>")?;
+    match &z.random_subsets {
+        Some(rs) => {
+            let eip_count = z.cms.len();
+            writeln!(h, "<table class=\"kv\">\n<tbody>")?;
+            writeln!(
+                h,
+                "<tr><th>Subsets</th><td>{} draws of {} points from the {} PIP (seed {})</td></tr>",
+                rs.subsets,
+                rs.size,
+                z.candidates.len(),
+                rs.seed
+            )?;
+            writeln!(
+                h,
+                "<tr><th>CMS size</th><td>mean {}, median {}; with the EIP: {eip_count}</td></tr>",
+                fmt_num(rs.mean, 1),
+                fmt_num(rs.median, 1)
+            )?;
+            if !rs.cms_counts.is_empty() {
+                let at_most = rs.cms_counts.iter().filter(|&&c| c <= eip_count).count();
+                writeln!(
+                    h,
+                    "<tr><th>Subsets as good as the EIP</th><td>{at_most} of {} ({} %) have a CMS of at most {eip_count}</td></tr>",
+                    rs.cms_counts.len(),
+                    fmt_num(100.0 * at_most as f64 / rs.cms_counts.len() as f64, 1)
+                )?;
+            }
+            writeln!(h, "</tbody>\n</table>")?;
+            figure(h, Figure::RandomSubsets)?;
+        }
+        None => writeln!(h, "<p>Not computed for this identification.</p>")?,
+    }
+
+    Ok(())
 }
 
 /// A table of instances (parameters in real units).

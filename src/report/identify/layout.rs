@@ -11,7 +11,7 @@ use super::super::canvas::{
     format_tick, legend_font, msg, text_width, Chart, FONT, GRID_BOLD, TAB10, TAB_BLUE, TAB_ORANGE,
     TAB_RED,
 };
-use crate::identify::answer::result::Identification;
+use crate::identify::answer::sizing::Sizing;
 
 // ---------------------------------------------------------------------------------------
 // Figures: common layout
@@ -257,9 +257,9 @@ pub(super) fn chart_builder<'a, 'b, DB: DrawingBackend>(
 }
 
 /// Selection order (1-based) of every candidate that is an EIP.
-pub(super) fn eip_order(id: &Identification) -> Vec<Option<usize>> {
-    let mut order = vec![None; id.candidates.len()];
-    for (k, &c) in id.eip.iter().enumerate() {
+pub(super) fn eip_order(z: &Sizing) -> Vec<Option<usize>> {
+    let mut order = vec![None; z.candidates.len()];
+    for (k, &c) in z.eip.iter().enumerate() {
         if let Some(slot) = order.get_mut(c) {
             slot.get_or_insert(k + 1);
         }

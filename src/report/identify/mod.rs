@@ -26,7 +26,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::canvas::{ensure_font, msg, render_png, PlotError};
-use crate::identify::answer::result::Identification;
+use crate::identify::answer::identification::Identification;
 use layout::*;
 
 mod detection;
@@ -149,13 +149,21 @@ impl Figure {
         }
     }
 
-    /// Whether `id` has the data for this figure (all but [`Figure::RandomSubsets`] always
-    /// do; that one needs [`Identification::random_subsets`]).
+    /// Whether `id` has the data for this figure: the series always; the detection when
+    /// its sensors' flat-free predictions are there; the points, the entropies and the
+    /// candidate model set only for a sized pass ([`Identification::sizing`]); the random
+    /// subsets only when they were computed.
     pub fn is_available(self, id: &Identification) -> bool {
         match self {
-            Figure::RandomSubsets => id.random_subsets.is_some(),
+            Figure::Series => true,
             Figure::Detection => detection::is_available(id),
-            _ => true,
+            Figure::Entropy | Figure::JointEntropy | Figure::ParallelCoordinates => {
+                id.sizing.is_some()
+            }
+            Figure::RandomSubsets => id
+                .sizing
+                .as_ref()
+                .is_some_and(|z| z.random_subsets.is_some()),
         }
     }
 
@@ -350,6 +358,13 @@ fn figure_size(id: &Identification, fig: Figure) -> (u32, u32) {
     }
 }
 
+/// The sizing a figure of it draws (checked by [`Figure::is_available`] before).
+fn sized(id: &Identification) -> Result<&crate::identify::Sizing, String> {
+    id.sizing
+        .as_ref()
+        .ok_or_else(|| "the pass was not sized (no flat detected)".to_string())
+}
+
 /// Draws the whole of `fig` on `root`.
 fn render<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
@@ -360,9 +375,9 @@ fn render<DB: DrawingBackend>(
     match fig {
         Figure::Series => series::render_series(root, id),
         Figure::Detection => detection::render_detection(root, id),
-        Figure::Entropy => entropy::render_entropy(root, id),
-        Figure::JointEntropy => entropy::render_joint_entropy(root, id),
-        Figure::ParallelCoordinates => parallel::render_parallel(root, id),
-        Figure::RandomSubsets => subsets::render_random_subsets(root, id),
+        Figure::Entropy => entropy::render_entropy(root, id, sized(id)?),
+        Figure::JointEntropy => entropy::render_joint_entropy(root, id, sized(id)?),
+        Figure::ParallelCoordinates => parallel::render_parallel(root, id, sized(id)?),
+        Figure::RandomSubsets => subsets::render_random_subsets(root, sized(id)?),
     }
 }

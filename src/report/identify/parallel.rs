@@ -9,7 +9,9 @@ use plotters::prelude::*;
 use super::{
     centred_note, fmt_axis, fmt_num, frame, Entry, Swatch, CAPTION_SIZE, CMS_COLOUR, EIP_COLOUR,
 };
-use crate::identify::answer::result::{Identification, InstanceParams, ParamRanges};
+use crate::identify::answer::identification::Identification;
+use crate::identify::answer::result::{InstanceParams, ParamRanges};
+use crate::identify::answer::sizing::Sizing;
 use crate::report::canvas::{
     draw_label, finite_runs, format_tick, msg, text_size, FONT, LEGEND_SIZE,
 };
@@ -92,9 +94,10 @@ fn inner_ticks(lo: f64, hi: f64) -> Vec<f64> {
 pub(super) fn render_parallel<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     id: &Identification,
+    z: &Sizing,
 ) -> DrawResult {
-    let n = id.cms.len();
-    let rm = &id.residual_minimisation;
+    let n = z.cms.len();
+    let rm = &z.residual_minimisation;
     let mut entries = Vec::with_capacity(2);
     if n > 0 {
         entries.push(Entry::new(
@@ -119,7 +122,12 @@ pub(super) fn render_parallel<DB: DrawingBackend>(
     let mut body = frame(root, &title, &entries)?;
     if n == 0 {
         let (note, rest) = body.split_vertically(56);
-        centred_note(&note, "empty CMS: model class refuted", EIP_COLOUR)?;
+        let why = if z.below_population {
+            "empty CMS: the flat is smaller than the population's"
+        } else {
+            "empty CMS: model class refuted"
+        };
+        centred_note(&note, why, EIP_COLOUR)?;
         body = rest;
     }
     let mut chart = ChartBuilder::on(&body)
@@ -149,7 +157,7 @@ pub(super) fn render_parallel<DB: DrawingBackend>(
     let cms_style = ShapeStyle::from(&CMS_COLOUR.mix(alpha)).stroke_width(2);
     chart
         .draw_series(
-            id.cms
+            z.cms
                 .iter()
                 .flat_map(|p| finite_runs(instance_line(p, &id.population).into_iter()))
                 .map(|run| PathElement::new(run, cms_style)),

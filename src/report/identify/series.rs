@@ -10,7 +10,8 @@ use super::{
     BAND_COLOUR, CAPTION_SIZE, EIP_COLOUR, EIP_LABEL_COLOUR, ENVELOPE_COLOUR, MEASURED_COLOUR,
     PIP_COLOUR,
 };
-use crate::identify::answer::result::Identification;
+use crate::identify::answer::identification::Identification;
+use crate::identify::answer::result::CandidatePoint;
 use crate::report::canvas::{
     around, draw_label, finite_runs, min_max, msg, pad_range, text_size, Placer, FONT,
 };
@@ -19,6 +20,12 @@ pub(super) fn render_series<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     id: &Identification,
 ) -> DrawResult {
+    let Some(z) = &id.sizing else {
+        // Not sized: the measured series alone.
+        let entries = [Entry::new("measured", Swatch::Line(MEASURED_COLOUR, 2))];
+        let title = "Measured series (no flat detected: not sized, no comparison points)";
+        return panels(&frame(root, title, &entries)?, id);
+    };
     let mut entries = vec![
         Entry::new("measured", Swatch::Line(MEASURED_COLOUR, 2)),
         Entry::new("PIP", Swatch::HollowCircle(PIP_COLOUR)),
@@ -31,7 +38,7 @@ pub(super) fn render_series<DB: DrawingBackend>(
             Swatch::ErrorBar(BAND_COLOUR),
         ),
     ];
-    if !id.envelope.is_empty() {
+    if !z.envelope.is_empty() {
         entries.push(Entry::new(
             "envelope point: the window's max or min (tick) and its admissible band",
             Swatch::Line(ENVELOPE_COLOUR, 3),
@@ -39,14 +46,18 @@ pub(super) fn render_series<DB: DrawingBackend>(
     }
     let title = format!(
         "Measured series: {} PIP ({} distance), {} EIP, {} envelope points",
-        id.candidates.len(),
+        z.candidates.len(),
         id.pip_distance,
-        id.eip.len(),
-        id.envelope.len()
+        z.eip.len(),
+        z.envelope.len()
     );
-    let body = frame(root, &title, &entries)?;
+    panels(&frame(root, &title, &entries)?, id)
+}
+
+/// The series' panels, one under the other, in `body`.
+fn panels<DB: DrawingBackend>(body: &DrawingArea<DB, Shift>, id: &Identification) -> DrawResult {
     if id.series.is_empty() {
-        return centred_note(&body, "no measured series", PIP_COLOUR);
+        return centred_note(body, "no measured series", PIP_COLOUR);
     }
     let panels = body.split_evenly((id.series.len(), 1));
     for (k, panel) in panels.iter().enumerate() {
@@ -72,19 +83,25 @@ fn series_panel<DB: DrawingBackend>(
     let time: Vec<f64> = (0..s.values_kn.len())
         .map(|i| s.t0_s + i as f64 * dt)
         .collect();
-    let order = eip_order(id);
-    let pips: Vec<(usize, _)> = id
-        .candidates
-        .iter()
-        .enumerate()
-        .filter(|(_, c)| c.series == k)
-        .collect();
-    let eips: Vec<(usize, _)> = pips
-        .iter()
-        .filter_map(|&(i, c)| order.get(i).copied().flatten().map(|n| (n, c)))
-        .collect();
-
-    let envelope: Vec<_> = id.envelope.iter().filter(|e| e.series == k).collect();
+    // The points of a sized pass on this series; none for a pass that was not sized.
+    let (pips, eips, envelope) = match &id.sizing {
+        Some(z) => {
+            let order = eip_order(z);
+            let pips: Vec<(usize, &CandidatePoint)> = z
+                .candidates
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| c.series == k)
+                .collect();
+            let eips: Vec<(usize, &CandidatePoint)> = pips
+                .iter()
+                .filter_map(|&(i, c)| order.get(i).copied().flatten().map(|n| (n, c)))
+                .collect();
+            let envelope: Vec<_> = z.envelope.iter().filter(|e| e.series == k).collect();
+            (pips, eips, envelope)
+        }
+        None => (Vec::new(), Vec::new(), Vec::new()),
+    };
     let (t_lo, t_hi) = pad_range(
         min_max(
             time.iter()

@@ -10,7 +10,7 @@ use super::{
     centred_note, chart_builder, draw_mesh, fmt_num, frame, Entry, Swatch, BAR_COLOUR, EIP_COLOUR,
     PIP_COLOUR, REFERENCE_COLOUR,
 };
-use crate::identify::answer::result::Identification;
+use crate::identify::answer::sizing::Sizing;
 use crate::report::canvas::msg;
 
 /// A "nice" bin width (1, 2 or 5 × 10^k) at least `raw`, and at least 1.
@@ -29,12 +29,12 @@ fn nice_width(raw: f64) -> usize {
 
 pub(super) fn render_random_subsets<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    id: &Identification,
+    z: &Sizing,
 ) -> DrawResult {
-    let Some(rs) = &id.random_subsets else {
+    let Some(rs) = &z.random_subsets else {
         return centred_note(root, "no random subsets drawn", PIP_COLOUR);
     };
-    let eip_count = id.cms.len();
+    let eip_count = z.cms.len();
     let entries = [
         Entry::new(
             format!(

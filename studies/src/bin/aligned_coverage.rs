@@ -49,12 +49,12 @@ fn main() {
         let out = aligned::identify_aligned(&id, &m, None, &cells, &st, which).unwrap();
         let truth_class = severity_class(t.l0_mm, insp, urg);
         let judge = |r, all| judge(r, &t, all, insp, urg);
-        let b = judge(out.base.falsifications[0].ranges.as_ref(), false);
+        let b = judge(out.base.cms_ranges(), false);
         let n = judge(out.ranges.as_ref(), true);
         println!(
             "{case:>3} L {:6.1} d {:.3} c {:.3} X {:.3} L0 {:5.1} | base {:>5} {} [{:5.1},{:5.1}] | aligned {:>5} {} [{:5.1},{:5.1}] cls {}/{} | {} pts {} cols read {:.1} ms fals {:.1} ms",
             t.length_mm, t.depth_mm, t.curvature_mm, t.impact_position_m, t.l0_mm,
-            out.base.cms.len(), b.holds as u8, b.l0_mm[0], b.l0_mm[1],
+            out.base.sizing.as_ref().map_or(0, |z| z.cms.len()), b.holds as u8, b.l0_mm[0], b.l0_mm[1],
             out.survivors.len(), n.holds as u8, n.l0_mm[0], n.l0_mm[1], n.class_index(), truth_class,
             out.points, out.columns, out.read_ms, out.falsify_ms
         );

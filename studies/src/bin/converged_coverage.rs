@@ -75,7 +75,7 @@ fn main() {
         .unwrap();
         let m = Measurement::from_csv(&csv, &text, cal.output.sample_rate_hz).expect("csv");
         let out = id.identify(&m, None, Extras::NONE).expect("identified");
-        let b = if out.below_population {
+        let b = if out.below_population() {
             let inside = t.l0_mm < out.population.l0_mm[0];
             Judged {
                 holds: inside,
@@ -83,9 +83,9 @@ fn main() {
                 class: Severity::Monitor,
             }
         } else {
-            judge(out.falsifications[0].ranges.as_ref(), &t, false, insp, urg)
+            judge(out.cms_ranges(), &t, false, insp, urg)
         };
-        if let Some(r) = out.falsifications[0].ranges.as_ref() {
+        if let Some(r) = out.cms_ranges() {
             wheel_right += usize::from(t.flat_wheel.is_some_and(|w| r.flat_wheels == [w]));
             wheel_wrong += usize::from(t.flat_wheel.is_some_and(|w| !r.flat_wheels.contains(&w)));
             let x = r.impact_position_m;
@@ -107,7 +107,7 @@ fn main() {
             u8::from(b.holds),
             b.l0_mm[0],
             b.l0_mm[1],
-            out.cms.len(),
+            out.sizing.as_ref().map_or(0, |z| z.cms.len()),
             r.map_or(String::new(), |r| format!(
                 " | refined {} [{:5.1},{:5.1}]",
                 u8::from(r.holds),

@@ -176,8 +176,8 @@ fn main() {
             let judge = |who: &Identifier| {
                 let id = who.identify(&m, None, Extras::NONE).expect("identified");
                 let det = id.detection.clone().expect("detection ran");
-                let ranges = id.falsifications.first().and_then(|f| f.ranges.clone());
-                let l0 = if id.below_population {
+                let ranges = id.cms_ranges().cloned();
+                let l0 = if id.below_population() {
                     Some([0.0, id.population.l0_mm[0]])
                 } else {
                     ranges.as_ref().map(|r| r.l0_mm)
@@ -190,7 +190,7 @@ fn main() {
                     (true, None) => Severity::Inspect,
                 };
                 let t = &syn.truth;
-                let inside = match (&ranges, id.below_population) {
+                let inside = match (&ranges, id.below_population()) {
                     (_, true) => t.l0_mm < id.population.l0_mm[0],
                     (Some(r), _) => wheelflat_studies::coverage::holds_truth(r, t, false),
                     (None, _) => false,
@@ -199,7 +199,7 @@ fn main() {
                     .as_ref()
                     .and_then(|r| r.impact)
                     .map(|i| i.dynamic_ratio);
-                let by_impact = match (det.flat_detected, id.below_population, ratio) {
+                let by_impact = match (det.flat_detected, id.below_population(), ratio) {
                     (false, ..) => Severity::None,
                     (true, true, _) => severity,
                     (true, false, Some([_, u])) => Severity::of_upper_ratio(

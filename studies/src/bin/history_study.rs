@@ -158,7 +158,7 @@ fn main() {
             .identify(&m, None, Extras::NONE)
             .expect("identified");
         // `REFINE=1`: each pass refined as `identify --refine` does; its cells are stored.
-        if refine && !id.cms.is_empty() {
+        if refine && id.sizing.as_ref().is_some_and(|z| !z.cms.is_empty()) {
             let sim = bank_simulator(identifier).expect("the bank's simulator");
             id.refinement = Some(
                 refine_answer(identifier, &sim, &id, RefineSettings::default()).expect("refined"),

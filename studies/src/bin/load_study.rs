@@ -121,22 +121,22 @@ fn main() {
             within3 += usize::from(err.abs() <= 0.03);
             inside += usize::from(load.interval_kn[0] <= true_kn && true_kn <= load.interval_kn[1]);
             errors.push(err);
-            refuted += usize::from(out.model_class_refuted);
-            let b = if out.below_population {
+            refuted += usize::from(out.model_class_refuted());
+            let b = if out.below_population() {
                 Judged {
                     holds: t.l0_mm < out.population.l0_mm[0],
                     l0_mm: [0.0, out.population.l0_mm[0]],
                     class: Severity::Monitor,
                 }
             } else {
-                judge(out.falsifications[0].ranges.as_ref(), &t, false, insp, urg)
+                judge(out.cms_ranges(), &t, false, insp, urg)
             };
-            if !b.holds || out.model_class_refuted {
+            if !b.holds || out.model_class_refuted() {
                 println!(
                     "case {k}: F {f:.3} v {v} true {true_kn:.1} kN read {:.1} kN, member {:.1} kN: {} L0 {:.1} in [{:.1}, {:.1}]",
                     load.wheel_load_kn,
                     load.bank_wheel_load_kn,
-                    if out.model_class_refuted { "REFUTED" } else { "missed" },
+                    if out.model_class_refuted() { "REFUTED" } else { "missed" },
                     t.l0_mm,
                     b.l0_mm[0],
                     b.l0_mm[1]

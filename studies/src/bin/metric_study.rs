@@ -58,11 +58,12 @@ fn main() {
         let x = id.identify(&m, None, Extras::NONE).unwrap();
         ms.push(clock.elapsed().as_secs_f64() * 1e3);
         let cls = severity_class(t.l0_mm, insp, urg);
-        let j = judge(x.falsifications[0].ranges.as_ref(), &t, false, insp, urg);
+        let j = judge(x.cms_ranges(), &t, false, insp, urg);
         println!(
             "{case:>3} L {:6.1} d {:.3} c {:.3} X {:.3} L0 {:5.1} class {cls} | CMS {:>5} covered {} L0 [{:5.1},{:5.1}] class {} | {} EIP + {} envelope",
             t.length_mm, t.depth_mm, t.curvature_mm, t.impact_position_m, t.l0_mm,
-            x.cms.len(), j.holds as u8, j.l0_mm[0], j.l0_mm[1], j.class_index(), x.eip.len(), x.envelope.len()
+            x.sizing.as_ref().map_or(0, |z| z.cms.len()), j.holds as u8, j.l0_mm[0], j.l0_mm[1], j.class_index(),
+            x.sizing.as_ref().map_or(0, |z| z.eip.len()), x.sizing.as_ref().map_or(0, |z| z.envelope.len())
         );
         truth.push((t.l0_mm, cls));
         judged.push(j);

@@ -91,7 +91,7 @@ fn main() {
         let (wheel, order, amplitude_um, _) = harmonic(*k);
         let d = out.detection.as_ref();
         let detected = d.is_some_and(|d| d.flat_detected);
-        let sized = detected && !out.cms.is_empty();
+        let sized = detected && out.sizing.as_ref().is_some_and(|z| !z.cms.is_empty());
         let b = ((order - 1) / 5) as usize;
         let named = d.and_then(|d| d.out_of_round.as_ref());
         let right = named.is_some_and(|f| f.wheel == wheel && f.order == order);
@@ -115,8 +115,8 @@ fn main() {
             if sized {
                 format!(
                     ", sized: CMS {} L0 {:?}",
-                    out.cms.len(),
-                    out.falsifications[0].ranges.as_ref().map(|r| r.l0_mm)
+                    out.sizing.as_ref().map_or(0, |z| z.cms.len()),
+                    out.cms_ranges().map(|r| r.l0_mm)
                 )
             } else {
                 String::new()

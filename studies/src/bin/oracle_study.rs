@@ -17,6 +17,8 @@ use rayon::prelude::*;
 use wheelflat_studies::study;
 
 use study::Study;
+use wheelflat::identify::envelope::EnvelopePoint;
+use wheelflat::identify::result::CandidatePoint;
 use wheelflat::identify::result::ParamRanges;
 use wheelflat::identify::{Extras, Identifier};
 use wheelflat::model::{batch_key, Flat, Record, Simulator, LANES};
@@ -63,21 +65,25 @@ fn main() {
                 .position(|x| x.name == out.series[series].sensor)
                 .unwrap()
         };
+        // A flat not detected was not sized: no points (and φ itself for none).
+        let z = out.sizing.as_ref();
+        let candidates: &[CandidatePoint] = z.map_or(&[], |z| &z.candidates);
+        let envelope: &[EnvelopePoint] = z.map_or(&[], |z| &z.envelope);
         let idx: Vec<usize> = if all {
-            (0..out.candidates.len()).collect()
+            (0..candidates.len()).collect()
         } else {
-            out.eip.clone()
+            z.map_or_else(Vec::new, |z| z.eip.clone())
         };
-        let p = if all {
-            out.phi
-                .powf(1.0 / (idx.len() + out.envelope.len()).max(1) as f64)
-        } else {
-            out.per_point_probability
+        let p = match z {
+            Some(z) if !all => z.per_point_probability,
+            _ => out
+                .phi
+                .powf(1.0 / (idx.len() + envelope.len()).max(1) as f64),
         };
         let mut pts: Vec<Pt> = idx
             .iter()
             .map(|&i| {
-                let c = &out.candidates[i];
+                let c = &candidates[i];
                 let (low, high) = id.thresholds(c.measured_kn, p);
                 Pt {
                     axis: axis_of(c.series),
@@ -89,7 +95,7 @@ fn main() {
                 }
             })
             .collect();
-        pts.extend(out.envelope.iter().map(|x| {
+        pts.extend(envelope.iter().map(|x| {
             let (low, high) = id.thresholds(x.measured_kn, p);
             Pt {
                 axis: axis_of(x.series),
@@ -193,7 +199,7 @@ fn main() {
                 impact: None,
             }
         });
-        let base = out.falsifications[0].ranges.clone();
+        let base = out.cms_ranges().cloned();
         let b = judge(base.as_ref(), &t, false, insp, urg);
         let o = judge(oracle.as_ref(), &t, false, insp, urg);
         let cls = severity_class(t.l0_mm, insp, urg);

@@ -50,13 +50,16 @@ fn main() {
         let (m, t) = coverage::case(&meas_cal, flat, seed, case).unwrap();
         let out = id.identify(&m, None, Extras::NONE).unwrap();
         let r = refine(&id, &sim, &out, settings).unwrap();
-        let b = judge(out.falsifications[0].ranges.as_ref(), &t, false, insp, urg);
+        // A flat not detected was not sized: no ranges, no CMS.
+        let z = out.sizing.as_ref();
+        let bank_ranges = z.and_then(|z| z.falsifications.first()?.ranges.as_ref());
+        let b = judge(bank_ranges, &t, false, insp, urg);
         let n = judge(r.ranges.as_ref(), &t, false, insp, urg);
         let cls = severity_class(t.l0_mm, insp, urg);
         println!(
             "{case:>3} L {:6.1} d {:.3} X {:.3} L0 {:5.1} off {:4.1} ms cls {cls} | bank {} [{:5.1},{:5.1}] cls {} cms {} | refined {} [{:5.1},{:5.1}] cls {} rounds {:?}{} {:.0} ms",
             t.length_mm, t.depth_mm, t.impact_position_m, t.l0_mm, t.contact_loss_ms,
-            u8::from(b.holds), b.l0_mm[0], b.l0_mm[1], b.class_index(), out.cms.len(),
+            u8::from(b.holds), b.l0_mm[0], b.l0_mm[1], b.class_index(), z.map_or(0, |z| z.cms.len()),
             u8::from(n.holds), n.l0_mm[0], n.l0_mm[1], n.class_index(),
             r.rounds.iter().map(|x| x.survivors).collect::<Vec<_>>(),
             if r.stopped_early { " (stopped early)" } else { "" },

@@ -170,10 +170,10 @@ fn main() {
     for (k, t, out) in results {
         let is_flat = k >= cases;
         let detected = out.detection.as_ref().is_some_and(|d| d.flat_detected);
-        let (held, refuted, width) = if !detected || out.below_population {
+        let (held, refuted, width) = if !detected || out.below_population() {
             (false, false, None)
         } else {
-            match out.falsifications[0].ranges.as_ref() {
+            match out.cms_ranges() {
                 Some(r) => {
                     let j = coverage::judge(Some(r), &t, false, insp, urg);
                     (j.holds, false, Some(r.l0_mm[1] - r.l0_mm[0]))

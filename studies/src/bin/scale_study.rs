@@ -5,6 +5,7 @@
 //! SPLIT: none (paper), rel (all relative sources systematic), cal (train system, track
 //! calibration, sensor accuracy, measurement additional systematic).
 use std::path::Path;
+use wheelflat::identify::result::CandidatePoint;
 use wheelflat::identify::result::ParamRanges;
 use wheelflat::identify::CombinedUncertainty;
 use wheelflat::identify::{Extras, Identifier};
@@ -83,16 +84,21 @@ fn main() {
         let (m, t) = coverage::case(&meas_cal, flat, seed, case).unwrap();
         let out = id.identify(&m, None, Extras::NONE).unwrap();
         let t0 = std::time::Instant::now();
+        // A flat not detected was not sized: no points.
+        let (candidates, eip): (&[CandidatePoint], &[usize]) = out
+            .sizing
+            .as_ref()
+            .map_or((&[], &[]), |z| (&z.candidates, &z.eip));
         let idx: Vec<usize> = if use_all {
-            (0..out.candidates.len()).collect()
+            (0..candidates.len()).collect()
         } else {
-            out.eip.clone()
+            eip.to_vec()
         };
         let axes = &id.bank().metadata().sensors;
         let cols: Vec<usize> = idx
             .iter()
             .map(|&i| {
-                let c = &out.candidates[i];
+                let c = &candidates[i];
                 let ax = axes
                     .iter()
                     .position(|x| x.name == out.series[c.series].sensor)
@@ -104,7 +110,7 @@ fn main() {
         let p = out.phi.powf(1.0 / idx.len().max(1) as f64);
         let bounds: Vec<(f64, f64)> = idx
             .iter()
-            .map(|&i| unc.thresholds(out.candidates[i].measured_kn, p))
+            .map(|&i| unc.thresholds(candidates[i].measured_kn, p))
             .collect();
         let nser = out.series.len();
         let n = params.length_mm.len();
@@ -113,7 +119,7 @@ fn main() {
                 let mut lo = vec![f_range[0]; nser];
                 let mut hi = vec![f_range[1]; nser];
                 for (j, &i) in idx.iter().enumerate() {
-                    let c = &out.candidates[i];
+                    let c = &candidates[i];
                     let g = preds[j][k] as f64;
                     let w = kappa * cells.spread(&preds[j], k) * f_range[1];
                     let y = c.measured_kn;
@@ -159,7 +165,7 @@ fn main() {
             }
         });
         let judged = judge(ranges.as_ref(), &t, true, insp, urg);
-        let base = judge(out.falsifications[0].ranges.as_ref(), &t, false, insp, urg);
+        let base = judge(out.cms_ranges(), &t, false, insp, urg);
         println!(
             "{case:>3} L {:6.1} d {:.3} c {:.3} X {:.3} L0 {:5.1} | base {} [{:5.1},{:5.1}] | scale {:>5} {} [{:5.1},{:5.1}] cls {}/{} {} pts {:.1} ms",
             t.length_mm, t.depth_mm, t.curvature_mm, t.impact_position_m, t.l0_mm,

@@ -28,7 +28,7 @@ fn main() {
         let c = WholeCase::new(&id, &meas_cal, flat, seed, case);
         let (out, t, cls, p, used) = (&c.out, &c.truth, c.class, c.p, &c.axes);
         let total: usize = out.series.iter().map(|s| s.values_kn.len()).sum();
-        let mut members = out.cms.clone();
+        let mut members = out.sizing.as_ref().map_or_else(Vec::new, |z| z.cms.clone());
         members.sort_by(|x, y| y.l0_mm.total_cmp(&x.l0_mm));
         let mut found: Option<(u32, f64)> = None;
         let mut checked = 0;
@@ -63,7 +63,7 @@ fn main() {
             t.depth_mm,
             t.curvature_mm,
             t.l0_mm,
-            out.cms.len(),
+            out.sizing.as_ref().map_or(0, |z| z.cms.len()),
             match found {
                 Some((k, l0)) => format!(
                     "instance {k} (L0 {l0:.1} mm, class {}) fits all {total} samples",

@@ -174,7 +174,7 @@ fn main() {
             let m = Measurement::from_csv(&csv, &text, cal.output.sample_rate_hz).expect("csv");
             let out = id.identify(&m, None, Extras::NONE).expect("identified");
             let detected = out.detection.as_ref().is_some_and(|d| d.flat_detected);
-            let r = out.falsifications.first().and_then(|f| f.ranges.as_ref());
+            let r = out.cms_ranges();
             let (held, width) = match (detected, r) {
                 (true, Some(r)) => (
                     r.l0_mm[0] - 0.5 <= *truth && *truth <= r.l0_mm[1] + 0.5,

@@ -316,7 +316,7 @@ fn main() {
                 };
                 let r = members.get(i).identify(&m, None, Extras::NONE).unwrap();
                 let detected = r.detection.as_ref().is_some_and(|d| d.flat_detected);
-                let ranges = r.falsifications.first().and_then(|f| f.ranges.clone());
+                let ranges = r.cms_ranges().cloned();
                 let holds = ranges.as_ref().map(|x| coverage::holds_truth(x, &t, false));
                 let width = ranges
                     .as_ref()

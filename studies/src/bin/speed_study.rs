@@ -38,13 +38,7 @@ fn main() {
             match id.identify(&m, None, Extras::NONE) {
                 Ok(x) => {
                     truth.push((t.l0_mm, cls));
-                    judged.push(judge(
-                        x.falsifications[0].ranges.as_ref(),
-                        &t,
-                        false,
-                        insp,
-                        urg,
-                    ));
+                    judged.push(judge(x.cms_ranges(), &t, false, insp, urg));
                 }
                 Err(e) => {
                     failed += 1;

@@ -58,7 +58,13 @@ fn main() {
                 .identify(&m, None, Extras::AS_RECORDED)
                 .expect("identified");
             let origin = surface::origin(&id, &m, &out).expect("origin");
-            (k, out.residual_minimisation.is_some(), origin)
+            (
+                k,
+                out.sizing
+                    .as_ref()
+                    .is_some_and(|z| z.residual_minimisation.is_some()),
+                origin,
+            )
         })
         .collect();
     // kind × [noise, rail, both wheels, leading, trailing, sized as a flat]

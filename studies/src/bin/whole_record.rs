@@ -204,7 +204,7 @@ fn main() {
                 .zip(used)
                 .all(|(ser, &ax)| passes(&id, &ser.values_kn, &g[ax], p, rule))
         };
-        let mut members = out.cms.clone();
+        let mut members = out.sizing.as_ref().map_or_else(Vec::new, |z| z.cms.clone());
         members.sort_by(|x, y| y.l0_mm.total_cmp(&x.l0_mm));
         let mut higher_members: Vec<Vec<Vec<f64>>> = members
             .iter()

@@ -2,7 +2,6 @@
 //! report, the figures' labels, degenerate input, errors, and the agreement of `report.html`
 //! with `identification.json`.
 
-use super::html::cms_ranges;
 use super::*;
 use crate::identify::answer::result::{ParamRanges, WheelRanges};
 use crate::report::canvas::{escape_html, format_tick};
@@ -11,6 +10,11 @@ use crate::report::dir_entries;
 mod sample;
 
 use sample::{hull_of, identification as synthetic, SUMMARY};
+
+/// The sample's sizing, to change.
+fn sized(id: &mut Identification) -> &mut crate::identify::Sizing {
+    id.sizing.as_mut().expect("the sample is sized")
+}
 
 /// Writes the report and checks the files, the JSON round trip and the HTML.
 fn check_report(id: &Identification, svgs: usize) {
@@ -102,10 +106,61 @@ fn a_result_without_a_detection_has_no_detection_figure() {
     );
 }
 
+/// A pass that was not sized (no flat detected): the report draws the series and the
+/// detection, says the pass was not sized, and shows no figure of a sizing that did not happen
+/// (no "0 of N instances", no α, no Šídák probability); the JSON keeps the form its readers
+/// know (the sizing's fields empty) and reads back as not sized.
+#[test]
+fn a_pass_without_sizing_reports_none() {
+    let mut id = synthetic();
+    id.sizing = None;
+    id.summary = "No flat detected.".into();
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let files = write_identification_report(&id, tmp.path()).expect("write report");
+    let names: Vec<String> = files
+        .figures
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(
+        names,
+        ["series.png", "series.svg", "detection.png", "detection.svg"]
+    );
+    let html = fs::read_to_string(&files.html).expect("read html");
+    assert!(html.contains("not sized"), "{html}");
+    for placeholder in [
+        "Šídák",
+        "stop threshold",
+        "of 50000 instances",
+        "EIP (joint entropy)",
+    ] {
+        assert!(
+            !html.contains(placeholder),
+            "{placeholder} in a report without sizing"
+        );
+    }
+    let json = fs::read_to_string(&files.json).expect("read json");
+    let value: serde_json::Value = serde_json::from_str(&json).expect("parse json");
+    assert_eq!(value["falsifications"], serde_json::json!([]));
+    assert_eq!(value["alpha_bits"], 0.0);
+    let back: Identification = serde_json::from_str(&json).expect("parse json");
+    assert_eq!(back, id);
+    for fig in [
+        Figure::Entropy,
+        Figure::JointEntropy,
+        Figure::ParallelCoordinates,
+    ] {
+        assert!(matches!(
+            figure_svg(&id, fig),
+            Err(ReportError::Unavailable { .. })
+        ));
+    }
+}
+
 #[test]
 fn report_without_random_subsets_has_five_figures() {
     let mut id = synthetic();
-    id.random_subsets = None;
+    sized(&mut id).random_subsets = None;
     check_report(&id, 5);
     let err = figure_svg(&id, Figure::RandomSubsets).unwrap_err();
     assert!(
@@ -140,8 +195,9 @@ fn figures_carry_their_labels() {
 #[test]
 fn empty_cms_says_the_model_class_is_refuted() {
     let mut id = synthetic();
-    id.cms.clear();
-    id.model_class_refuted = true;
+    let z = sized(&mut id);
+    z.cms.clear();
+    z.model_class_refuted = true;
     let svg = figure_svg(&id, Figure::ParallelCoordinates).expect("parallel");
     assert!(svg.contains("empty CMS: model class refuted"));
     let tmp = tempfile::tempdir().expect("tempdir");
@@ -156,7 +212,7 @@ fn empty_cms_says_the_model_class_is_refuted() {
 fn a_refined_answer_is_shown_and_read_back() {
     let mut id = synthetic();
     id.refinement = Some(crate::identify::refine::Refinement {
-        ranges: id.falsifications[0].ranges.clone(),
+        ranges: id.cms_ranges().cloned(),
         survivors: 7,
         simulations: 640,
         rounds: Vec::new(),
@@ -185,12 +241,13 @@ fn a_refined_answer_is_shown_and_read_back() {
 fn degenerate_input_still_draws() {
     let mut id = synthetic();
     id.series.clear();
-    id.candidates.clear();
-    id.eip = vec![3, 99];
-    id.entropy_curves.clear();
     id.bank_instances = 0;
     id.population.depth_mm = [1.0, 1.0];
-    if let Some(rs) = id.random_subsets.as_mut() {
+    let z = sized(&mut id);
+    z.candidates.clear();
+    z.eip = vec![3, 99];
+    z.entropy_curves.clear();
+    if let Some(rs) = z.random_subsets.as_mut() {
         rs.cms_counts.clear();
         rs.mean = f64::NAN;
     }
@@ -231,7 +288,8 @@ fn helpers() {
 #[test]
 fn html_shows_the_ranges_the_json_carries() {
     let mut id = synthetic();
-    let hull = hull_of(&id.cms).expect("a CMS");
+    let z = sized(&mut id);
+    let hull = hull_of(&z.cms).expect("a CMS");
     // The union of cells: each instance's cell reaches past it, so the ranges are wider.
     let widen = |[lo, hi]: [f64; 2], h: f64| [lo - h, hi + h];
     let cells = ParamRanges {
@@ -243,10 +301,10 @@ fn html_shows_the_ranges_the_json_carries() {
         flat_wheels: hull.flat_wheels.clone(),
         impact: None,
     };
-    id.falsifications[0].ranges = Some(cells.clone());
-    id.wheel_ranges = vec![WheelRanges {
+    z.falsifications[0].ranges = Some(cells.clone());
+    z.wheel_ranges = vec![WheelRanges {
         wheel: crate::model::WheelPosition::Trailing,
-        cms_count: id.cms.len(),
+        cms_count: z.cms.len(),
         ranges: cells,
     }];
 
@@ -256,10 +314,13 @@ fn html_shows_the_ranges_the_json_carries() {
         serde_json::from_str(&fs::read_to_string(&files.json).expect("read json"))
             .expect("parse json");
     let html = fs::read_to_string(&files.html).expect("read html");
-    let json_ranges = cms_ranges(&back).expect("the JSON carries the CMS ranges");
+    let json_ranges = back.cms_ranges().expect("the JSON carries the CMS ranges");
     assert_eq!(
         Some(json_ranges),
-        back.wheel_ranges.first().map(|w| &w.ranges)
+        back.sizing
+            .as_ref()
+            .and_then(|z| z.wheel_ranges.first())
+            .map(|w| &w.ranges)
     );
     let row = |name: &str, range: [f64; 2], decimals: usize, unit: &str| {
         format!(

@@ -2,10 +2,12 @@
 //! instances, 200 random subsets), for looking at the report's layout without a bank
 //! (`examples/identify_preview.rs`) and for the report's tests.
 
+use crate::identify::answer::identification::Identification;
 use crate::identify::answer::result::{
-    Alignment, CandidatePoint, EntropyCurve, Falsification, Identification, InstanceParams,
-    MeasuredSeries, Method, ParamRanges, RandomSubsets,
+    Alignment, CandidatePoint, EntropyCurve, Falsification, InstanceParams, MeasuredSeries, Method,
+    ParamRanges, RandomSubsets,
 };
+use crate::identify::answer::sizing::Sizing;
 use crate::report::canvas::min_max;
 
 /// Sample rate of the hand-made series (Hz).
@@ -190,79 +192,81 @@ pub(super) fn identification() -> Identification {
         series,
         pip_distance: crate::identify::input::pip::PipDistance::Vertical,
         pips_per_series: 10,
-        candidates,
-        eip,
-        eip_joint_entropy_bits: vec![4.4, 7.1, 9.0, 10.3, 11.1, 11.6],
-        envelope: Vec::new(),
-        alpha_bits: 0.05,
-        entropy_curves: vec![
-            EntropyCurve {
-                label: "rps1".into(),
-                joint_entropy_bits: curve(10, 7.7, 2.5),
-            },
-            EntropyCurve {
-                label: "rps2".into(),
-                joint_entropy_bits: curve(10, 11.2, 2.8),
-            },
-            EntropyCurve {
-                label: "rps1+rps2".into(),
-                joint_entropy_bits: curve(20, 12.2, 2.6),
-            },
-        ],
         phi: 0.95,
-        per_point_probability: q(0.95f64.powf(1.0 / 6.0)),
-        cms: cms.clone(),
-        wheel_ranges: Vec::new(),
-        falsifications: vec![
-            Falsification {
-                method: Method::Eip {
-                    envelope: false,
-                    departures: false,
+        sizing: Some(Sizing {
+            candidates,
+            eip,
+            eip_joint_entropy_bits: vec![4.4, 7.1, 9.0, 10.3, 11.1, 11.6],
+            envelope: Vec::new(),
+            alpha_bits: 0.05,
+            entropy_curves: vec![
+                EntropyCurve {
+                    label: "rps1".into(),
+                    joint_entropy_bits: curve(10, 7.7, 2.5),
                 },
-                points: 6,
-                cms_count: 15,
-                ranges: hull_of(&cms),
-            },
-            Falsification {
-                method: Method::Equidistant,
-                points: 6,
-                cms_count: 412,
-                ranges: Some(ParamRanges {
-                    length_mm: [30.0, 90.0],
-                    depth_mm: [0.3, 1.2],
-                    curvature_mm: [0.0, 1.0],
-                    impact_position_m: [0.0, 3.0],
-                    l0_mm: [31.0, 62.0],
-                    flat_wheels: vec![crate::model::WheelPosition::Trailing],
-                    impact: None,
-                }),
-            },
-            Falsification {
-                method: Method::RandomSubsets { subsets: 200 },
-                points: 20,
-                cms_count: 0,
-                ranges: None,
-            },
-        ],
-        residual_minimisation: Some(InstanceParams {
-            instance: 4242,
-            length_mm: 44.0,
-            depth_mm: 0.52,
-            curvature_mm: 0.31,
-            impact_position_m: 1.1,
-            l0_mm: q((8.0f64 * 0.52 * 400.0).sqrt()),
-            flat_wheel: crate::model::WheelPosition::Trailing,
+                EntropyCurve {
+                    label: "rps2".into(),
+                    joint_entropy_bits: curve(10, 11.2, 2.8),
+                },
+                EntropyCurve {
+                    label: "rps1+rps2".into(),
+                    joint_entropy_bits: curve(20, 12.2, 2.6),
+                },
+            ],
+            per_point_probability: q(0.95f64.powf(1.0 / 6.0)),
+            cms: cms.clone(),
+            wheel_ranges: Vec::new(),
+            falsifications: vec![
+                Falsification {
+                    method: Method::Eip {
+                        envelope: false,
+                        departures: false,
+                    },
+                    points: 6,
+                    cms_count: 15,
+                    ranges: hull_of(&cms),
+                },
+                Falsification {
+                    method: Method::Equidistant,
+                    points: 6,
+                    cms_count: 412,
+                    ranges: Some(ParamRanges {
+                        length_mm: [30.0, 90.0],
+                        depth_mm: [0.3, 1.2],
+                        curvature_mm: [0.0, 1.0],
+                        impact_position_m: [0.0, 3.0],
+                        l0_mm: [31.0, 62.0],
+                        flat_wheels: vec![crate::model::WheelPosition::Trailing],
+                        impact: None,
+                    }),
+                },
+                Falsification {
+                    method: Method::RandomSubsets { subsets: 200 },
+                    points: 20,
+                    cms_count: 0,
+                    ranges: None,
+                },
+            ],
+            residual_minimisation: Some(InstanceParams {
+                instance: 4242,
+                length_mm: 44.0,
+                depth_mm: 0.52,
+                curvature_mm: 0.31,
+                impact_position_m: 1.1,
+                l0_mm: q((8.0f64 * 0.52 * 400.0).sqrt()),
+                flat_wheel: crate::model::WheelPosition::Trailing,
+            }),
+            random_subsets: Some(RandomSubsets {
+                subsets: 200,
+                size: 6,
+                cms_counts: counts,
+                mean,
+                median,
+                seed: 7,
+            }),
+            model_class_refuted: false,
+            below_population: false,
         }),
-        random_subsets: Some(RandomSubsets {
-            subsets: 200,
-            size: 6,
-            cms_counts: counts,
-            mean,
-            median,
-            seed: 7,
-        }),
-        model_class_refuted: false,
-        below_population: false,
         detection: Some(detected),
         roughness: None,
         comparison: Default::default(),
@@ -283,7 +287,8 @@ pub(super) fn identification() -> Identification {
 /// Paper-sized: 30 PIP per series, 18 EIP crowded after the impact, 500 candidate instances.
 pub(super) fn dense() -> Identification {
     let mut id = identification();
-    id.candidates.clear();
+    let z = id.sizing.as_mut().expect("the sample is sized");
+    z.candidates.clear();
     for s in 0..2 {
         for j in 0..30usize {
             let i = if j < 2 {
@@ -292,7 +297,7 @@ pub(super) fn dense() -> Identification {
                 110 + (j * 7 + s * 3) % 120
             };
             let m = id.series[s].values_kn[i];
-            id.candidates.push(CandidatePoint {
+            z.candidates.push(CandidatePoint {
                 series: s,
                 sample: i,
                 time_s: q(i as f64 / RATE_HZ),
@@ -309,9 +314,9 @@ pub(super) fn dense() -> Identification {
             });
         }
     }
-    id.eip = vec![
+    z.eip = vec![
         58, 33, 40, 12, 45, 50, 9, 36, 31, 47, 52, 38, 5, 42, 55, 3, 34, 44,
     ];
-    id.cms = (0..500).map(instance).collect();
+    z.cms = (0..500).map(instance).collect();
     id
 }
