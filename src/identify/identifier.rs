@@ -3,20 +3,19 @@
 //! the tables loaded when a pass first needs them), and its accessors. The stages that use it
 //! are methods beside their stage ([`super::stages`], the stage folders).
 
-use super::answer::ranges::ranges_of;
-use super::answer::result::ParamRanges;
-use super::detect::{self, roughness::RoughnessUse};
-use super::domain::cells::Cells;
-use super::domain::discretisation;
-use super::domain::falsify::Resolution;
 use super::domain::uncertainty::{CombinedUncertainty, ThresholdCurve};
-use super::input;
 use super::input::compare::{self, Comparison};
-use super::IdentifyError;
 use crate::bank::departures::{self, Departures};
 use crate::bank::out_of_round::OutOfRoundBasis;
 use crate::bank::roughness::RoughnessTable;
 use crate::bank::{Bank, Parameters};
+use crate::identify::domain::cells::Cells;
+use crate::identify::domain::discretisation::{self, share, static_load_kn};
+use crate::identify::domain::falsify::Resolution;
+use crate::identify::domain::table_bounds::TableBounds;
+use crate::identify::error::IdentifyError;
+use crate::identify::input;
+use crate::model::average::weights_at;
 use crate::model::calibration::IdentificationParams;
 use std::sync::{Arc, Mutex};
 
@@ -29,7 +28,7 @@ pub struct Identifier {
     pub(super) settings: IdentificationParams,
     pub(super) uncertainty: CombinedUncertainty,
     /// The table's hard bounds the detection step and the departure rule judge with.
-    pub(super) bounds: detect::TableBounds,
+    pub(super) bounds: TableBounds,
     /// Each instance's discretisation share (empty: none; [`Identifier::discretisation`]).
     pub(super) discretisation: Vec<f32>,
     pub(super) buffers: Mutex<input::buffer::HugeBuffer>,
@@ -86,7 +85,7 @@ impl Identifier {
         cells: Cells,
     ) -> Identifier {
         let uncertainty = CombinedUncertainty::new(&settings);
-        let bounds = detect::TableBounds::of(&settings);
+        let bounds = TableBounds::of(&settings);
         let discretisation = discretisation::shares(&settings, &params, &bank);
         let flat_free_averaged = compare::averaged_templates(&bank.metadata().flat_free_kn);
         Identifier {
@@ -123,9 +122,9 @@ impl Identifier {
         &self.settings
     }
 
-    /// The table's hard bounds a good wheel's record stays within ([`detect::TableBounds`];
+    /// The table's hard bounds a good wheel's record stays within ([`TableBounds`];
     /// a pass adds its roughness, [`RoughnessUse::bounds`]).
-    pub fn table_bounds(&self) -> detect::TableBounds {
+    pub fn table_bounds(&self) -> TableBounds {
         self.bounds
     }
 
@@ -163,35 +162,6 @@ impl Identifier {
             .fold(0.0f64, |m, &g| m.max(f64::from(g).abs()))
     }
 
-    /// The threshold curve of a point measured at `y_kn` whose flat-free prediction is
-    /// `flat_free_kn`, in a pass judged with `roughness`: the table's curve widened by its
-    /// bounded sources and by the roughness' bound there.
-    pub fn point_curve(
-        &self,
-        roughness: &RoughnessUse,
-        y_kn: f64,
-        flat_free_kn: f64,
-        p: f64,
-    ) -> ThresholdCurve {
-        let (a, b) = self.uncertainty.good_wheel_widening(flat_free_kn);
-        let w = roughness.widening_kn(flat_free_kn);
-        self.uncertainty.curve(y_kn, p).widened((a - w, b + w))
-    }
-
-    /// The thresholds of a point measured at `y_kn` whose flat-free prediction is
-    /// `flat_free_kn`, in a pass judged with `roughness` (as [`Identifier::point_curve`]).
-    pub fn point_thresholds(
-        &self,
-        roughness: &RoughnessUse,
-        y_kn: f64,
-        flat_free_kn: f64,
-        p: f64,
-    ) -> (f64, f64) {
-        let (lo, hi) = self.uncertainty.thresholds_at(y_kn, flat_free_kn, p);
-        let w = roughness.widening_kn(flat_free_kn);
-        (lo - w, hi + w)
-    }
-
     /// The bank's resolution as falsification uses it (`None` when switched off).
     pub fn resolution(&self) -> Option<Resolution<'_>> {
         (self.settings.bank_resolution > 0.0).then_some(Resolution {
@@ -208,22 +178,61 @@ impl Identifier {
         }
     }
 
-    /// The parameter ranges a set of instances stands for.
-    pub(super) fn ranges(
+    /// The discretisation share of a flat whose wheel's peak wheel–rail force is `peak_kn`
+    /// (a refinement's simulated flats; [`Identifier::discretisation`]).
+    pub fn discretisation_share(&self, peak_kn: f64) -> f32 {
+        share(&self.settings, static_load_kn(&self.bank), peak_kn)
+    }
+
+    /// Every instance's prediction at `(axis, sample)` of each of `points` as comparison `c`
+    /// sees it, into `out` (one column of `instances` after another).
+    pub(crate) fn read_compared(
         &self,
-        members: impl Iterator<Item = usize> + Clone,
-    ) -> Option<ParamRanges> {
-        let cal = &self.bank.metadata().calibration;
-        ranges_of(
-            &self.params,
-            self.resolution().map(|r| r.cells),
-            &cal.population,
-            (
-                cal.vehicle.wheel_radius_m,
-                cal.vehicle.static_wheel_load_n() / 1e3,
-            ),
-            members,
-        )
+        points: &[(usize, usize)],
+        c: Comparison,
+        out: &mut [f32],
+    ) -> Result<(), IdentifyError> {
+        let n = self.bank.instances();
+        if c == Comparison::Samples {
+            let cols: Vec<usize> = points
+                .iter()
+                .map(|&(a, k)| self.bank.sample_index(a, k))
+                .collect();
+            return Ok(self.bank.read_columns_flat(&cols, out)?);
+        }
+        let axes = &self.bank.metadata().sensors;
+        for (b, block) in points.chunks(BLOCK).enumerate() {
+            // The stored columns the block's averages take, and their weights.
+            let mut stored: Vec<usize> = Vec::new();
+            let terms: Vec<Vec<(usize, f64)>> = block
+                .iter()
+                .map(|&(a, k)| {
+                    let (first, w) = weights_at(k, axes[a].samples, c.weights());
+                    w.into_iter()
+                        .enumerate()
+                        .map(|(j, w)| {
+                            let col = self.bank.sample_index(a, first + j);
+                            let at = stored.iter().position(|&s| s == col).unwrap_or_else(|| {
+                                stored.push(col);
+                                stored.len() - 1
+                            });
+                            (at, w)
+                        })
+                        .collect()
+                })
+                .collect();
+            let values = self.bank.read_columns(&stored)?;
+            for (j, t) in terms.iter().enumerate() {
+                let dest = &mut out[(b * BLOCK + j) * n..(b * BLOCK + j + 1) * n];
+                for (i, d) in dest.iter_mut().enumerate() {
+                    *d = t
+                        .iter()
+                        .map(|&(at, w)| w * f64::from(values[at][i]))
+                        .sum::<f64>() as f32;
+                }
+            }
+        }
+        Ok(())
     }
 
     // The tables loaded when a pass first needs them, kept for the next.
@@ -283,3 +292,7 @@ impl Identifier {
         }
     }
 }
+
+/// Requested columns averaged at a time: 32 columns need at most 160 stored ones
+/// (32 MB for 50,000 instances).
+const BLOCK: usize = 32;

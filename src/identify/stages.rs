@@ -17,14 +17,22 @@ use super::answer::result::{
 };
 use super::answer::severity::{below_population_words, summarise, SeverityRange};
 use super::domain::falsify::{self, falsify, residual_minimisation, Point};
-use super::input::buffer::HugeBuffer;
-use super::input::pip::Candidate;
 use super::select::entropy::{
     self, bin_into, binned_columns, greedy_joint_entropy, Binned, Selection,
 };
 use super::select::envelope::{self, EnvelopePoint};
-use super::{Detection, Extras, Identification, Identifier, IdentifyError, Measurement, Sizing};
-use super::{ThresholdCurve, WheelPosition};
+use crate::identify::answer::identification::Identification;
+use crate::identify::answer::sizing::Sizing;
+use crate::identify::detect::Detection;
+use crate::identify::domain::discretisation::Steps;
+use crate::identify::domain::uncertainty::ThresholdCurve;
+use crate::identify::error::IdentifyError;
+use crate::identify::extras::Extras;
+use crate::identify::identifier::Identifier;
+use crate::identify::input::buffer::HugeBuffer;
+use crate::identify::input::measurement::Measurement;
+use crate::identify::input::pip::Candidate;
+use crate::model::WheelPosition;
 use crate::stopwatch::Stopwatch;
 
 /// What the sizing stages read of the prepared measurement.
@@ -38,9 +46,9 @@ pub(super) struct SizingInput<'a> {
     /// The PIP candidates: (series, sample, PIP order).
     pub(super) cands: &'a [Candidate],
     /// The roughness the pass is judged with.
-    pub(super) roughness: &'a super::RoughnessUse,
+    pub(super) roughness: &'a crate::identify::detect::roughness::RoughnessUse,
     /// How its series meet the bank's predictions.
-    pub(super) comparison: super::Comparison,
+    pub(super) comparison: crate::identify::input::compare::Comparison,
 }
 
 /// Stage 1's outcome: the predictions read, and the envelope windows they include.
@@ -297,7 +305,7 @@ impl Identifier {
         // compared one by one (the average takes in a landing's neighbours).
         let shares = self
             .discretisation()
-            .filter(|_| z.comparison == super::Comparison::Samples);
+            .filter(|_| z.comparison == crate::identify::input::compare::Comparison::Samples);
         let (eip_steps, env_steps) = match shares {
             Some(_) => self.allowance_steps(
                 z.used,
@@ -529,5 +537,46 @@ impl Identifier {
             timings_ms: laps.laps,
             refinement: None,
         })
+    }
+}
+
+impl Identifier {
+    /// Every instance's steps at the EIP points `order` (indices into the candidates `cands`,
+    /// whose predictions are `predictions`) — from the samples either side, two more columns a
+    /// point — and at the envelope windows (their `2·hw + 1` columns each, `env_columns`).
+    #[allow(clippy::too_many_arguments)]
+    pub(in crate::identify) fn allowance_steps(
+        &self,
+        used: &[(usize, usize)],
+        series: &[MeasuredSeries],
+        cands: &[Candidate],
+        order: &[usize],
+        predictions: &[&[f32]],
+        env_columns: &[&[f32]],
+        hw: usize,
+    ) -> Result<Steps, IdentifyError> {
+        let sides: Vec<usize> = order
+            .iter()
+            .flat_map(|&i| {
+                let Candidate {
+                    series: si,
+                    sample: k,
+                    ..
+                } = cands[i];
+                let (b, last) = (used[si].1, series[si].values_kn.len() - 1);
+                [
+                    self.bank.sample_index(b, k.saturating_sub(1)),
+                    self.bank.sample_index(b, (k + 1).min(last)),
+                ]
+            })
+            .collect();
+        let side = self.bank.read_columns(&sides)?;
+        let eip: Vec<Vec<f32>> = order
+            .iter()
+            .enumerate()
+            .map(|(j, &i)| falsify::steps(&[&side[2 * j], predictions[i], &side[2 * j + 1]]))
+            .collect();
+        let env: Vec<Vec<f32>> = env_columns.chunks(2 * hw + 1).map(falsify::steps).collect();
+        Ok((eip, env))
     }
 }

@@ -4,7 +4,8 @@
 use crate::identify::answer::result::{Falsification, MeasuredSeries, Method, RandomSubsets};
 use crate::identify::domain::falsify::{falsify, random_subset_counts, Point};
 use crate::identify::domain::uncertainty::ThresholdCurve;
-use crate::identify::{Identifier, IdentifyError};
+use crate::identify::error::IdentifyError;
+use crate::identify::identifier::Identifier;
 
 impl Identifier {
     /// CMS sizes of the settings' random subsets of `m` points drawn from `all_points`: the
@@ -54,7 +55,7 @@ impl Identifier {
         series: &[MeasuredSeries],
         used: &[(usize, usize)],
         m: usize,
-        (p, roughness): (f64, &crate::identify::RoughnessUse),
+        (p, roughness): (f64, &crate::identify::detect::roughness::RoughnessUse),
     ) -> Result<Falsification, IdentifyError> {
         let mut eq: Vec<(usize, usize)> = Vec::new();
         for (si, ser) in series.iter().enumerate() {

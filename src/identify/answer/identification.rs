@@ -2,7 +2,8 @@
 //! and — for a pass with a flat detected — sizing found, the verdict in words and classes.
 //! Written as `identification.json` ([`crate::identify::answer::json`]).
 
-use super::result::{Alignment, MeasuredSeries, ParamRanges, Refinement, SpeedUse};
+use super::refinement::Refinement;
+use super::result::{Alignment, MeasuredSeries, ParamRanges, SpeedUse};
 use super::sizing::Sizing;
 use serde::{Deserialize, Serialize};
 
@@ -59,7 +60,7 @@ pub struct Identification {
     /// The severity classes the answer spans and the one acted on (its highest); absent in
     /// results written before it was stated.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub severity: Option<crate::identify::SeverityRange>,
+    pub severity: Option<crate::identify::answer::severity::SeverityRange>,
     /// Wall-clock of the stages (ms).
     pub timings_ms: Vec<(String, f64)>,
     /// The refined answer (`identify --refine`), beside the bank-only one above.

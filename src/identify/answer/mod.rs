@@ -8,6 +8,7 @@ pub(crate) mod identification;
 pub mod json;
 pub(in crate::identify) mod no_flat;
 pub(crate) mod ranges;
+pub(crate) mod refinement;
 pub mod result;
 pub(crate) mod severity;
 pub(crate) mod sizing;

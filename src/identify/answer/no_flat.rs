@@ -1,10 +1,13 @@
 //! The answer of a pass in which no flat is detected: no sizing, the pass's detection limit
 //! instead of a size, severity none.
 
+use crate::identify::answer::identification::Identification;
 use crate::identify::answer::ranges::population_ranges;
 use crate::identify::answer::result::{Alignment, MeasuredSeries};
 use crate::identify::detect::Detection;
-use crate::identify::{Identification, Identifier, IdentifyError, Measurement};
+use crate::identify::error::IdentifyError;
+use crate::identify::identifier::Identifier;
+use crate::identify::input::measurement::Measurement;
 
 impl Identifier {
     /// The answer for a pass in which no flat is detected: no sizing, the detection limit
@@ -13,7 +16,7 @@ impl Identifier {
         &self,
         m: &Measurement,
         (alignment, series): (Alignment, Vec<MeasuredSeries>),
-        (mut detection, roughness): (Detection, crate::identify::RoughnessUse),
+        (mut detection, roughness): (Detection, crate::identify::detect::roughness::RoughnessUse),
         load: Option<crate::identify::detect::load::LoadEstimate>,
         axes: &[usize],
         mut timings_ms: Vec<(String, f64)>,
@@ -80,7 +83,9 @@ impl Identifier {
         };
         // A good wheel is `none`; a pass that cannot see a wheel gives no class.
         let severity = (limit.l0_mm.is_some() && unseen.is_empty()).then_some(
-            crate::identify::SeverityRange::single(crate::identify::Severity::None),
+            crate::identify::answer::severity::SeverityRange::single(
+                crate::identify::answer::severity::Severity::None,
+            ),
         );
         detection.limit = Some(limit);
         timings_ms.push((

@@ -5,6 +5,7 @@
 use crate::bank::Parameters;
 use crate::identify::answer::result::{ImpactRange, InstanceParams, ParamRanges};
 use crate::identify::domain::cells::Cells;
+use crate::identify::identifier::Identifier;
 use crate::model::calibration::PopulationParams;
 use crate::model::{Calibration, Flat, WheelPosition};
 
@@ -108,7 +109,7 @@ pub(crate) fn population_ranges(cal: &Calibration) -> ParamRanges {
     }
 }
 
-impl crate::identify::Identifier {
+impl crate::identify::identifier::Identifier {
     /// The index of the instance numbered `id` in the bank as read (its number itself for
     /// every bank wheelflat writes; searched otherwise).
     pub fn index_of_instance(&self, id: u32) -> Option<usize> {
@@ -138,5 +139,25 @@ impl crate::identify::Identifier {
             b[2 * t + 1] = (x[t] + h[t]).min(clamp[t][1]);
         }
         b
+    }
+}
+
+impl Identifier {
+    /// The parameter ranges a set of instances stands for.
+    pub(in crate::identify) fn ranges(
+        &self,
+        members: impl Iterator<Item = usize> + Clone,
+    ) -> Option<ParamRanges> {
+        let cal = &self.bank.metadata().calibration;
+        ranges_of(
+            &self.params,
+            self.resolution().map(|r| r.cells),
+            &cal.population,
+            (
+                cal.vehicle.wheel_radius_m,
+                cal.vehicle.static_wheel_load_n() / 1e3,
+            ),
+            members,
+        )
     }
 }

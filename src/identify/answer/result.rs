@@ -218,65 +218,6 @@ pub struct RandomSubsets {
     pub seed: u64,
 }
 
-/// One round of a refinement.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RefineRound {
-    /// Flats simulated in the round.
-    pub simulated: usize,
-    /// Seeds plus new flats that survive.
-    pub survivors: usize,
-    /// The round's answer (None when nothing survived).
-    pub ranges: Option<ParamRanges>,
-}
-
-/// The refined answer, reported beside the bank-only one.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Refinement {
-    /// The union of the last surviving round's cells.
-    pub ranges: Option<ParamRanges>,
-    /// Flats that stand for it (the last surviving round's survivors).
-    pub survivors: usize,
-    /// Simulations run.
-    pub simulations: usize,
-    /// Every round.
-    pub rounds: Vec<RefineRound>,
-    /// True when a round kept nothing and an earlier answer stands.
-    pub stopped_early: bool,
-    /// Wall time (ms).
-    pub time_ms: f64,
-    /// The refined answer in words.
-    pub summary: String,
-    /// The maintenance hint from the refined upper L0 bound (rule stated), or why the bank-only
-    /// answer's stands.
-    pub maintenance_hint: String,
-    /// The classes the refined answer spans (absent when the bank-only verdict stands).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub severity: Option<crate::identify::SeverityRange>,
-    /// The surviving flats' cells in (L, d, c) — `[L_lo, L_hi, d_lo, d_hi, c_lo, c_hi]`
-    /// (mm), clamped to the population — and their wheels, for the results database (not in
-    /// the JSON; empty when the bank-only answer stands).
-    #[serde(skip)]
-    pub cells: Vec<([f64; 6], WheelPosition)>,
-}
-
-impl Refinement {
-    /// A refinement with nothing in it yet: no ranges, no survivor, no round, no words.
-    pub(crate) fn empty() -> Refinement {
-        Refinement {
-            ranges: None,
-            survivors: 0,
-            simulations: 0,
-            rounds: Vec::new(),
-            stopped_early: false,
-            time_ms: 0.0,
-            summary: String::new(),
-            maintenance_hint: String::new(),
-            severity: None,
-            cells: Vec::new(),
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

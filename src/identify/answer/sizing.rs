@@ -1,6 +1,6 @@
 //! What sizing found for a pass with a flat detected ([`Sizing`]): the comparison points, the
 //! candidate model set and what falsified the rest. A pass without a flat has none, and
-//! [`crate::identify::Identification::sizing`] says so with `None` instead of empty lists
+//! [`crate::identify::answer::identification::Identification::sizing`] says so with `None` instead of empty lists
 //! and made-up probabilities.
 //!
 //! In `identification.json` the fields stand beside the others, as they always did; a pass
@@ -118,7 +118,7 @@ impl Sizing {
     }
 }
 
-/// `identification.json`'s form of [`crate::identify::Identification::sizing`]: the fields
+/// `identification.json`'s form of [`crate::identify::answer::identification::Identification::sizing`]: the fields
 /// beside the others (`#[serde(flatten, with = …)]`), filled for a sized pass and as
 /// [`Sizing::not_sized`] writes them for one without. Read back, an empty `falsifications`
 /// (sizing always judges by the method at least) is a pass without sizing, provided every

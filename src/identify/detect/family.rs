@@ -3,7 +3,9 @@
 //! bogies run at several speeds).
 
 use crate::bank::family::Family;
-use crate::identify::{Identifier, IdentifyError, Measurement};
+use crate::identify::error::IdentifyError;
+use crate::identify::identifier::Identifier;
+use crate::identify::input::measurement::Measurement;
 use crate::model::calibration::IdentificationParams;
 use std::path::Path;
 

@@ -1,13 +1,15 @@
 //! The good-wheel side of identification: the detection step run before sizing
 //! ([`crate::identify::detect`]) and its detection limit from the bank's departures table
-//! (the answer of a pass in which no flat is detected: [`crate::identify::answer::no_flat`]).
+//! (the answer of a pass in which no flat is detected is written by the answer stage).
 //! `identify`, `watch` and `train` all come through here.
 
 use crate::identify::detect::{self, Detection, DetectionLimit, WheelLimit};
+use crate::identify::error::IdentifyError;
+use crate::identify::identifier::Identifier;
 use crate::identify::input::alignment::SpeedUse;
 use crate::identify::input::compare::Comparison;
 use crate::identify::input::measurement::MeasuredSeries;
-use crate::identify::{Identifier, IdentifyError, Measurement};
+use crate::identify::input::measurement::Measurement;
 use crate::model::WheelPosition;
 
 impl Identifier {

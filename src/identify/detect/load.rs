@@ -160,15 +160,15 @@ pub(crate) fn estimate(
     })
 }
 
-impl crate::identify::Identifier {
+impl crate::identify::identifier::Identifier {
     /// The load a pass shows on this bank, before any sizing: the detection step over the
     /// sensors `sensors` (all the file's when `None`), milliseconds. This is what picks a
     /// member of a family over loads ([`crate::identify::detect::family::Members::member_for_pass`]).
     pub fn estimate_load(
         &self,
-        m: &crate::identify::Measurement,
+        m: &crate::identify::input::measurement::Measurement,
         sensors: Option<&[String]>,
-    ) -> Result<Option<LoadEstimate>, crate::identify::IdentifyError> {
+    ) -> Result<Option<LoadEstimate>, crate::identify::error::IdentifyError> {
         let prepared = self.prepare(m, sensors)?;
         let axes: Vec<usize> = prepared.used.iter().map(|&(_, bi)| bi).collect();
         // The gains alone decide the load: the roughness bound does not change them.
@@ -176,7 +176,7 @@ impl crate::identify::Identifier {
             &axes,
             &prepared.series,
             self.bounds,
-            crate::identify::Comparison::Samples,
+            crate::identify::input::compare::Comparison::Samples,
         )))
     }
 
@@ -232,7 +232,7 @@ impl crate::identify::Identifier {
     }
 }
 
-/// How a pass is put on its bank's load ([`crate::identify::Identifier::at_bank_load`]).
+/// How a pass is put on its bank's load ([`crate::identify::identifier::Identifier::at_bank_load`]).
 enum Adjustment {
     /// A heavier pass: every sample times this (< 1).
     Scale(f64),

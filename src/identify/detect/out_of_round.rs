@@ -18,9 +18,10 @@
 use crate::bank::out_of_round::OrderResponse;
 pub use crate::identify::detect::harmonic::OutOfRoundFit;
 use crate::identify::detect::{self, Detection, TableBounds};
+use crate::identify::error::IdentifyError;
+use crate::identify::identifier::Identifier;
 use crate::identify::input::compare::Comparison;
 use crate::identify::input::measurement::MeasuredSeries;
-use crate::identify::{Identifier, IdentifyError};
 use crate::model::average::centred_average;
 
 /// The largest amplitude named (µm).

@@ -18,7 +18,9 @@
 
 use crate::bank::roughness::RoughnessRow;
 use crate::identify::detect::TableBounds;
-use crate::identify::{Identifier, IdentifyError};
+use crate::identify::domain::uncertainty::ThresholdCurve;
+use crate::identify::error::IdentifyError;
+use crate::identify::identifier::Identifier;
 use crate::model::average::BINOMIAL5 as HF_WEIGHTS;
 use crate::model::calibration::{IdentificationParams, UncertaintyKind};
 use crate::model::surface::RoughnessClass;
@@ -73,12 +75,12 @@ impl RoughnessUse {
 
     /// How a pass judged with this roughness is compared with the bank: through the average
     /// when it allows for any roughness, sample by sample for round wheels on a smooth rail.
-    pub fn comparison(&self) -> crate::identify::Comparison {
+    pub fn comparison(&self) -> crate::identify::input::compare::Comparison {
         let rough_treads = self.wheel.is_some() && !self.within_noise;
         if rough_treads || self.rail.is_some() {
-            crate::identify::Comparison::Binomial5
+            crate::identify::input::compare::Comparison::Binomial5
         } else {
-            crate::identify::Comparison::Samples
+            crate::identify::input::compare::Comparison::Samples
         }
     }
 
@@ -122,8 +124,10 @@ impl RoughnessUse {
             "as stated".to_string()
         };
         let compared = match self.comparison() {
-            crate::identify::Comparison::Samples => "compared sample by sample",
-            crate::identify::Comparison::Binomial5 => "compared through the 5-sample average",
+            crate::identify::input::compare::Comparison::Samples => "compared sample by sample",
+            crate::identify::input::compare::Comparison::Binomial5 => {
+                "compared through the 5-sample average"
+            }
         };
         format!(
             "{wheels} on {rail} ({how}); bound ±({:.2} kN + {:.1} % of the good wheel's force), {compared}",
@@ -243,6 +247,37 @@ impl Identifier {
             }
         }
         Ok(u)
+    }
+}
+
+impl Identifier {
+    /// The threshold curve of a point measured at `y_kn` whose flat-free prediction is
+    /// `flat_free_kn`, in a pass judged with `roughness`: the table's curve widened by its
+    /// bounded sources and by the roughness' bound there.
+    pub fn point_curve(
+        &self,
+        roughness: &RoughnessUse,
+        y_kn: f64,
+        flat_free_kn: f64,
+        p: f64,
+    ) -> ThresholdCurve {
+        let (a, b) = self.uncertainty.good_wheel_widening(flat_free_kn);
+        let w = roughness.widening_kn(flat_free_kn);
+        self.uncertainty.curve(y_kn, p).widened((a - w, b + w))
+    }
+
+    /// The thresholds of a point measured at `y_kn` whose flat-free prediction is
+    /// `flat_free_kn`, in a pass judged with `roughness` (as [`Identifier::point_curve`]).
+    pub fn point_thresholds(
+        &self,
+        roughness: &RoughnessUse,
+        y_kn: f64,
+        flat_free_kn: f64,
+        p: f64,
+    ) -> (f64, f64) {
+        let (lo, hi) = self.uncertainty.thresholds_at(y_kn, flat_free_kn, p);
+        let w = roughness.widening_kn(flat_free_kn);
+        (lo - w, hi + w)
     }
 }
 

@@ -1,6 +1,6 @@
 //! How a pass was put on the bank's time axis ([`Alignment`]) and at which speed it was
 //! compared ([`SpeedUse`]): what the input stage tells the answer (re-exported by
-//! [`crate::identify::result`]).
+//! [`crate::identify::answer::result`]).
 
 use serde::{Deserialize, Serialize};
 use std::fmt;

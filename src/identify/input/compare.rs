@@ -13,8 +13,7 @@
 //! sample, not through the average (measured, docs/detection.md).
 
 use crate::identify::input::measurement::MeasuredSeries;
-use crate::identify::{Identifier, IdentifyError};
-use crate::model::average::{centred_average, weights_at, BINOMIAL5};
+use crate::model::average::{centred_average, BINOMIAL5};
 use serde::{Deserialize, Serialize};
 
 /// How a pass's series meet the bank's predictions.
@@ -46,63 +45,6 @@ impl Comparison {
                 ..s.clone()
             })
             .collect()
-    }
-}
-
-/// Requested columns averaged at a time: 32 columns need at most 160 stored ones
-/// (32 MB for 50,000 instances).
-const BLOCK: usize = 32;
-
-impl Identifier {
-    /// Every instance's prediction at `(axis, sample)` of each of `points` as comparison `c`
-    /// sees it, into `out` (one column of `instances` after another).
-    pub(crate) fn read_compared(
-        &self,
-        points: &[(usize, usize)],
-        c: Comparison,
-        out: &mut [f32],
-    ) -> Result<(), IdentifyError> {
-        let n = self.bank.instances();
-        if c == Comparison::Samples {
-            let cols: Vec<usize> = points
-                .iter()
-                .map(|&(a, k)| self.bank.sample_index(a, k))
-                .collect();
-            return Ok(self.bank.read_columns_flat(&cols, out)?);
-        }
-        let axes = &self.bank.metadata().sensors;
-        for (b, block) in points.chunks(BLOCK).enumerate() {
-            // The stored columns the block's averages take, and their weights.
-            let mut stored: Vec<usize> = Vec::new();
-            let terms: Vec<Vec<(usize, f64)>> = block
-                .iter()
-                .map(|&(a, k)| {
-                    let (first, w) = weights_at(k, axes[a].samples, c.weights());
-                    w.into_iter()
-                        .enumerate()
-                        .map(|(j, w)| {
-                            let col = self.bank.sample_index(a, first + j);
-                            let at = stored.iter().position(|&s| s == col).unwrap_or_else(|| {
-                                stored.push(col);
-                                stored.len() - 1
-                            });
-                            (at, w)
-                        })
-                        .collect()
-                })
-                .collect();
-            let values = self.bank.read_columns(&stored)?;
-            for (j, t) in terms.iter().enumerate() {
-                let dest = &mut out[(b * BLOCK + j) * n..(b * BLOCK + j + 1) * n];
-                for (i, d) in dest.iter_mut().enumerate() {
-                    *d = t
-                        .iter()
-                        .map(|&(at, w)| w * f64::from(values[at][i]))
-                        .sum::<f64>() as f32;
-                }
-            }
-        }
-        Ok(())
     }
 }
 

@@ -16,7 +16,7 @@
 
 use crate::bank::family::SPEED_TOLERANCE;
 use crate::bank::schema::SensorAxis;
-use crate::identify::IdentifyError;
+use crate::identify::error::IdentifyError;
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};

@@ -36,9 +36,10 @@ mod local;
 mod points;
 
 use super::answer::identification::Identification;
-pub use super::answer::result::{RefineRound, Refinement};
+pub use super::answer::refinement::{RefineRound, Refinement};
 use super::domain::falsify::{falsify, largest_step, Resolution};
-use super::{Identifier, IdentifyError};
+use crate::identify::error::IdentifyError;
+use crate::identify::identifier::Identifier;
 use crate::model::{Simulator, WheelPosition};
 use local::{local_cells, ranges_of, sample_in_cells};
 use points::{simulate_at, Comparison};

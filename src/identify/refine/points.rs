@@ -5,7 +5,9 @@ use crate::bank::schema::SensorAxis;
 use crate::identify::answer::identification::Identification;
 use crate::identify::answer::sizing::Sizing;
 use crate::identify::domain::falsify::{largest_step, Discretisation, Point};
-use crate::identify::{Identifier, IdentifyError, ThresholdCurve};
+use crate::identify::domain::uncertainty::ThresholdCurve;
+use crate::identify::error::IdentifyError;
+use crate::identify::identifier::Identifier;
 use crate::model::{batch_key, Flat, Record, Simulator, WheelPosition, LANES};
 use rayon::prelude::*;
 
@@ -50,7 +52,7 @@ impl Comparison {
         let rough = id
             .roughness
             .clone()
-            .unwrap_or_else(|| crate::identify::RoughnessUse::none(0.0, 0.0));
+            .unwrap_or_else(|| crate::identify::detect::roughness::RoughnessUse::none(0.0, 0.0));
         let mut c = Comparison {
             axes: axes.clone(),
             at: Vec::new(),

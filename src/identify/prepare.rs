@@ -3,11 +3,13 @@
 //! important points.
 
 use crate::bank::schema::SensorAxis;
+use crate::identify::error::IdentifyError;
+use crate::identify::identifier::Identifier;
 use crate::identify::input::alignment::{Alignment, AlignmentMethod};
 use crate::identify::input::measurement::MeasuredSeries;
+use crate::identify::input::measurement::Measurement;
 use crate::identify::input::pip::perceptually_important_points;
 use crate::identify::input::pip::Candidate;
-use crate::identify::{Identifier, IdentifyError, Measurement};
 
 /// A measurement made ready for comparison with the bank.
 pub(in crate::identify) struct Prepared {
@@ -168,7 +170,7 @@ impl Identifier {
     pub fn series_as_recorded(
         &self,
         m: &Measurement,
-        id: &crate::identify::Identification,
+        id: &crate::identify::answer::identification::Identification,
     ) -> Result<Vec<MeasuredSeries>, IdentifyError> {
         let meta = self.bank.metadata();
         let raw = m.at_bank_speed(meta.calibration.run.speed_km_per_h)?;
