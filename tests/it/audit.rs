@@ -168,59 +168,48 @@ fn audit_command_writes_its_report_and_names_bad_instances() {
     let tmp = tempfile::tempdir().unwrap();
     let flat = Flat::from_mm(58.0, 0.47, 0.04, 12.41).unwrap();
     let syn = synth::synthesize(cal, &flat, 5, true).unwrap();
-    let csv = tmp.path().join("m.csv");
-    std::fs::write(&csv, &syn.csv).unwrap();
-    let out_dir = tmp.path().join("audit");
-    let out = wheelflat()
-        .arg("audit")
-        .arg("--bank")
-        .arg(dir)
-        .args(["--instance", "17", "--measured"])
-        .arg(&csv)
-        .arg("--out")
-        .arg(&out_dir)
-        .assert()
-        .success();
-    let text = String::from_utf8(out.get_output().stdout.clone()).unwrap();
+    // Instance 17 audited against a measured record `csv` (its text), into `name`: stdout and
+    // the audit's JSON.
+    let audit = |name: &str, csv: &str| -> (String, serde_json::Value) {
+        let file = tmp.path().join(format!("{name}.csv"));
+        std::fs::write(&file, csv).unwrap();
+        let out_dir = tmp.path().join(name);
+        let out = wheelflat()
+            .arg("audit")
+            .arg("--bank")
+            .arg(dir)
+            .args(["--instance", "17", "--measured"])
+            .arg(&file)
+            .arg("--out")
+            .arg(&out_dir)
+            .assert()
+            .success();
+        let text = String::from_utf8(out.get_output().stdout.clone()).unwrap();
+        let json = std::fs::read_to_string(out_dir.join("audit.json")).unwrap();
+        (text, serde_json::from_str(&json).unwrap())
+    };
+    let (text, json) = audit("audit", &syn.csv);
     assert!(text.contains("instance 17: L "), "{text}");
     assert!(text.contains("bit for bit"), "{text}");
     assert!(
         text.contains("KEPT") || text.contains("FALSIFIED"),
         "{text}"
     );
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out_dir.join("audit.json")).unwrap())
-            .unwrap();
     assert_eq!(json["instance"], 17);
     assert_eq!(json["resimulation"]["identical"], true);
     assert!(json["measured"]["points"].as_array().unwrap().len() > 3);
-    assert!(out_dir.join("audit.png").metadata().unwrap().len() > 10_000);
+    let png = tmp.path().join("audit").join("audit.png");
+    assert!(png.metadata().unwrap().len() > 10_000);
 
     // A good wheel: no flat detected, the pass not sized, so no comparison points to check
     // the instance at — said, not a table of none.
     let good = synth::synthesize_pass(cal, None, 5, true, synth::FieldNoise::TABLE).unwrap();
-    let good_csv = tmp.path().join("good.csv");
-    std::fs::write(&good_csv, &good.csv).unwrap();
-    let good_dir = tmp.path().join("audit-good");
-    let out = wheelflat()
-        .arg("audit")
-        .arg("--bank")
-        .arg(dir)
-        .args(["--instance", "17", "--measured"])
-        .arg(&good_csv)
-        .arg("--out")
-        .arg(&good_dir)
-        .assert()
-        .success();
-    let text = String::from_utf8(out.get_output().stdout.clone()).unwrap();
+    let (text, json) = audit("audit-good", &good.csv);
     assert!(text.contains("not checked against"), "{text}");
     assert!(
         !text.contains("KEPT") && !text.contains("FALSIFIED"),
         "{text}"
     );
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(good_dir.join("audit.json")).unwrap())
-            .unwrap();
     assert!(json["measured"].is_null(), "{json}");
 
     let err = wheelflat()
