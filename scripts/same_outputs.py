@@ -43,14 +43,20 @@ def text(path, roots):
     return CLOCK_TEXT.sub("<clock>", s)
 
 
-def rows(path):
+def rows(path, roots):
+    """The tables' rows, time stamps and ids aside, the trees' roots (in result folders and
+    reasons) replaced by one name."""
     con = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
     out = {}
     for (name,) in con.execute("SELECT name FROM sqlite_master WHERE type='table' ORDER BY name"):
         cols = [c[1] for c in con.execute(f"PRAGMA table_info({name})")]
         keep = [c for c in cols if not CLOCK_KEY.search(c) and c not in ("id", "measurement")]
         sel = ", ".join(keep) or "1"
-        out[name] = sorted(map(repr, con.execute(f"SELECT {sel} FROM {name}")))
+        scrubbed = (
+            tuple(scrub(v, roots) if isinstance(v, str) else v for v in row)
+            for row in con.execute(f"SELECT {sel} FROM {name}")
+        )
+        out[name] = sorted(map(repr, scrubbed))
     con.close()
     return out
 
@@ -76,7 +82,7 @@ def main():
         if rel.endswith(".json"):
             same = scrub(json.load(open(a)), roots) == scrub(json.load(open(b)), roots)
         elif rel.endswith(".db"):
-            same = rows(a) == rows(b)
+            same = rows(a, roots) == rows(b, roots)
         elif rel.endswith((".png", ".svg")):
             same = True  # figures: presence only (their text is the JSON's, compared)
         elif rel.endswith((".db-wal", ".db-shm", ".lock")):
