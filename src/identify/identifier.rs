@@ -123,7 +123,7 @@ impl Identifier {
     }
 
     /// The table's hard bounds a good wheel's record stays within ([`TableBounds`];
-    /// a pass adds its roughness, [`RoughnessUse::bounds`]).
+    /// a pass adds its roughness, [`crate::identify::RoughnessUse::bounds`]).
     pub fn table_bounds(&self) -> TableBounds {
         self.bounds
     }

@@ -16,7 +16,7 @@ use crate::stopwatch::Stopwatch;
 impl Identifier {
     /// Identifies the flat behind one measurement, stage by stage ([`stages`]): the
     /// measurement prepared (sensors, alignment, series on the bank's windows, PIPs); its load
-    /// read and the record put on the bank's load; detection ([`detect`]) — when no flat is
+    /// read and the record put on the bank's load; detection ([`crate::identify::detect`]) — when no flat is
     /// detected, that answer with the pass's detection limit and no sizing; else the bank's
     /// predictions read, the comparison points selected by joint entropy, the envelope points,
     /// falsification and the departure rule, and the result assembled. `sensors` restricts

@@ -67,7 +67,7 @@ pub fn default_flats() -> Vec<TrainFlat> {
 
 impl TrainSpec {
     /// 12 bogies (6 cars), 12.5 m bogie centres within a car, 9 m between cars: farther apart
-    /// than a bogie's windows reach (8 m with the default sensors), see [`super::identify_train`].
+    /// than a bogie's windows reach (8 m with the default sensors), see [`super::identify_bogies`].
     pub fn twelve_bogies(flats: Vec<TrainFlat>, seed: u64) -> TrainSpec {
         TrainSpec {
             bogies: 12,

@@ -10,7 +10,7 @@ pub use crate::identify::input::measurement::MeasuredSeries;
 /// A candidate comparison point: a perceptually important point (PIP) of a measured series.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CandidatePoint {
-    /// Index into [`Identification::series`].
+    /// Index into the identification's series ([`crate::identify::Identification::series`]).
     pub series: usize,
     /// Sample index within the series' window.
     pub sample: usize,
@@ -192,7 +192,7 @@ impl TryFrom<String> for Method {
 pub struct Falsification {
     /// How its points were chosen.
     pub method: Method,
-    /// Comparison points (indices into [`Identification::candidates`], or for equidistant
+    /// Comparison points (indices into [`crate::identify::Sizing::candidates`], or for equidistant
     /// points their own list in `points_detail`).
     pub points: usize,
     /// Candidate model set size.
