@@ -5,6 +5,7 @@
 use super::canvas::{msg, render_png, render_svg, DrawResult};
 use super::PlotError;
 use crate::history::{Joint, StoredPass};
+use plotters::chart::SeriesAnno;
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -160,16 +161,57 @@ fn pass_mesh<DB: DrawingBackend>(
         .map_err(msg)
 }
 
+/// The top of a panel's axis: over its largest value and a quarter over its upper limit.
+fn panel_top(values: impl Iterator<Item = f64>, upper_limit: f64) -> f64 {
+    values.fold(upper_limit * 1.25, f64::max) * 1.05
+}
+
+/// The inspect and urgent limits' colours.
+const LIMIT_COLOURS: [RGBColor; 2] = [RGBColor(220, 150, 0), RGBColor(200, 0, 0)];
+
+/// A class limit at `v` across the `n` passes, dashed; its annotation, for a legend entry.
+fn limit_line<'c, 'a, DB: DrawingBackend + 'a>(
+    chart: &'c mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    n: usize,
+    v: f64,
+    colour: RGBColor,
+) -> Result<&'c mut SeriesAnno<'a, DB>, String> {
+    chart
+        .draw_series(DashedLineSeries::new(
+            [(0.5, v), (n as f64 + 0.5, v)],
+            8,
+            5,
+            colour.stroke_width(2),
+        ))
+        .map_err(msg)
+}
+
+/// Pass `x`'s range `[lo, hi]`, a bar.
+fn pass_bar<DB: DrawingBackend>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    x: f64,
+    [lo, hi]: [f64; 2],
+    colour: RGBColor,
+) -> DrawResult {
+    chart
+        .draw_series(std::iter::once(Rectangle::new(
+            [(x - 0.08, lo), (x + 0.08, hi)],
+            colour.filled(),
+        )))
+        .map(|_| ())
+        .map_err(msg)
+}
+
 /// Each pass's dynamic-ratio range (a bar; none where the pass sized no flat on this wheel)
 /// and the impact rule's limits (dashed).
 fn ratio_panel<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, r: &HistoryReport) -> DrawResult {
     let n = r.passes.len().max(1);
-    let top = r
-        .passes
-        .iter()
-        .filter_map(|p| p.dynamic_ratio.map(|d| d[1]))
-        .fold(r.limits_dynamic_ratio[1] * 1.25, f64::max)
-        * 1.05;
+    let top = panel_top(
+        r.passes
+            .iter()
+            .filter_map(|p| p.dynamic_ratio.map(|d| d[1])),
+        r.limits_dynamic_ratio[1],
+    );
     let mut chart = ChartBuilder::on(root)
         .margin(20)
         .x_label_area_size(40)
@@ -177,28 +219,12 @@ fn ratio_panel<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, r: &HistoryRep
         .build_cartesian_2d(0.5f64..n as f64 + 0.5, 0.0f64..top)
         .map_err(msg)?;
     pass_mesh(&mut chart, "dynamic ratio", n)?;
-    for (v, c) in [
-        (r.limits_dynamic_ratio[0], RGBColor(220, 150, 0)),
-        (r.limits_dynamic_ratio[1], RGBColor(200, 0, 0)),
-    ] {
-        chart
-            .draw_series(DashedLineSeries::new(
-                [(0.5, v), (n as f64 + 0.5, v)],
-                8,
-                5,
-                c.stroke_width(2),
-            ))
-            .map_err(msg)?;
+    for (v, c) in r.limits_dynamic_ratio.into_iter().zip(LIMIT_COLOURS) {
+        limit_line(&mut chart, n, v, c)?;
     }
     for (i, p) in r.passes.iter().enumerate() {
         if let Some(d) = p.dynamic_ratio {
-            let x = i as f64 + 1.0;
-            chart
-                .draw_series(std::iter::once(Rectangle::new(
-                    [(x - 0.08, d[0]), (x + 0.08, d[1])],
-                    RGBColor(90, 90, 90).filled(),
-                )))
-                .map_err(msg)?;
+            pass_bar(&mut chart, i as f64 + 1.0, d, RGBColor(90, 90, 90))?;
         }
     }
     Ok(())
@@ -208,13 +234,13 @@ fn ratio_panel<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, r: &HistoryRep
 /// it out), the joint L0 range (a band over the passes it is made of), the class limits
 /// (dashed).
 fn l0_panel<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, r: &HistoryReport) -> DrawResult {
-    let top = r
-        .passes
-        .iter()
-        .filter_map(|p| p.l0_mm.map(|l| l[1]))
-        .chain(r.joint.l0_mm.map(|l| l[1]))
-        .fold(r.limits_l0_mm[1] * 1.25, f64::max)
-        * 1.05;
+    let top = panel_top(
+        r.passes
+            .iter()
+            .filter_map(|p| p.l0_mm.map(|l| l[1]))
+            .chain(r.joint.l0_mm.map(|l| l[1])),
+        r.limits_l0_mm[1],
+    );
     let n = r.passes.len().max(1);
     let mut chart = ChartBuilder::on(root)
         .caption(
@@ -248,18 +274,12 @@ fn l0_panel<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, r: &HistoryReport
                 )
             });
     }
-    for (name, v, c) in [
-        ("inspect", r.limits_l0_mm[0], RGBColor(220, 150, 0)),
-        ("urgent", r.limits_l0_mm[1], RGBColor(200, 0, 0)),
-    ] {
-        chart
-            .draw_series(DashedLineSeries::new(
-                [(0.5, v), (n as f64 + 0.5, v)],
-                8,
-                5,
-                c.stroke_width(2),
-            ))
-            .map_err(msg)?
+    for ((name, v), c) in ["inspect", "urgent"]
+        .into_iter()
+        .zip(r.limits_l0_mm)
+        .zip(LIMIT_COLOURS)
+    {
+        limit_line(&mut chart, n, v, c)?
             .label(format!("{name} from {v:.0} mm"))
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 15, y)], c.stroke_width(2)));
     }
@@ -268,14 +288,7 @@ fn l0_panel<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, r: &HistoryReport
         let used = r.joint.passes_used.contains(&i);
         let colour = if used { BLACK } else { RGBColor(160, 160, 160) };
         match p.l0_mm {
-            Some(l) => {
-                chart
-                    .draw_series(std::iter::once(Rectangle::new(
-                        [(x - 0.08, l[0]), (x + 0.08, l[1])],
-                        colour.filled(),
-                    )))
-                    .map_err(msg)?;
-            }
+            Some(l) => pass_bar(&mut chart, x, l, colour)?,
             None => {
                 chart
                     .draw_series(std::iter::once(Circle::new((x, 0.0), 6, colour.filled())))

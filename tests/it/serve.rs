@@ -162,12 +162,7 @@ fn every_page_and_its_json_say_the_same_of_the_site() {
     );
     // Needing action, gravest first: R1's flat grew to urgent, F1's is urgent or inspect; the
     // good wheels are not listed.
-    let action: Vec<&str> = v["action"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|a| a["wheel"]["wheel_id"].as_str().unwrap())
-        .collect();
+    let action = action_wheels(&v);
     assert!(!action.is_empty(), "{v}");
     assert!(action.iter().all(|w| !w.starts_with("G1")), "{action:?}");
     assert_eq!(
@@ -239,14 +234,7 @@ fn every_page_and_its_json_say_the_same_of_the_site() {
     let last = *f1.last().unwrap();
     let p = json(&app, &format!("/api/pass/{last}"));
     assert_eq!(p["pass"]["bogie_id"], "F1");
-    assert!(
-        p["result_files"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .any(|f| f == "report.html"),
-        "{p}"
-    );
+    assert!(lists_result_file(&p, "report.html"), "{p}");
     report_linked(&app, last, "files");
     let (status, headers, record) = get(&app, &format!("/pass/{last}/record.json"), &[]);
     assert_eq!(status, StatusCode::OK);
@@ -286,6 +274,25 @@ fn every_page_and_its_json_say_the_same_of_the_site() {
 }
 
 /// The body at `uri`, answered 200 with a content type starting `kind`.
+/// The wheels `/api/site` lists as needing action, in its order.
+pub(crate) fn action_wheels(site: &serde_json::Value) -> Vec<&str> {
+    site["action"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["wheel"]["wheel_id"].as_str().unwrap())
+        .collect()
+}
+
+/// Whether `/api/pass/ID` lists `name` among the files its command wrote.
+pub(crate) fn lists_result_file(pass: &serde_json::Value, name: &str) -> bool {
+    pass["result_files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|f| f == name)
+}
+
 fn served(app: &axum::Router, uri: &str, kind: &str) -> String {
     let (status, headers, body) = get(app, uri, &[]);
     assert_eq!(status, StatusCode::OK, "{uri}: {body}");

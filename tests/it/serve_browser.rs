@@ -228,12 +228,7 @@ fn the_demo_serves_its_site() {
     let failures = site["failures"].as_array().unwrap();
     assert_eq!(failures.len(), 1, "{site}");
     assert_eq!(failures[0]["kind"], "refused");
-    let action: Vec<&str> = site["action"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|a| a["wheel"]["wheel_id"].as_str().unwrap())
-        .collect();
+    let action = super::serve::action_wheels(&site);
     assert!(
         action
             .iter()

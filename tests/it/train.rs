@@ -212,14 +212,7 @@ fn the_commands_write_the_report_and_refuse_a_bank_that_does_not_cover_a_train()
         .unwrap_or_else(|| panic!("4711-5/trailing needs action: {site}"));
     let pass = flat["wheel"]["last_pass_id"].as_i64().unwrap();
     let p = super::serve::json(&app, &format!("/api/pass/{pass}"));
-    assert!(
-        p["result_files"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .any(|f| f == "train.html"),
-        "{p}"
-    );
+    assert!(super::serve::lists_result_file(&p, "train.html"), "{p}");
     let (status, _, _) = super::serve::get(&app, &format!("/pass/{pass}/files/train.html"), &[]);
     assert_eq!(status.as_u16(), 200);
 

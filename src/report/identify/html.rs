@@ -120,7 +120,7 @@ pub(super) fn render_html(
     if let Some(l) = &id.load {
         writeln!(h, "<p class=\"meta\">{}</p>", e(&l.words()))?;
     }
-    let refuted = if id.sizing.as_ref().is_some_and(|z| z.model_class_refuted) {
+    let refuted = if id.model_class_refuted() {
         " refuted"
     } else {
         ""
