@@ -296,6 +296,10 @@ pub struct MeasuredCheck {
     pub kept: bool,
     /// Member of the identification's candidate model set (agrees with `kept`).
     pub in_cms: bool,
+    /// Kept at every point and explained by one gain per sensor at every point the pass read
+    /// (`None`: the settings have no shared stage).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shared_gains_kept: Option<bool>,
     /// Every comparison point, in EIP order.
     pub points: Vec<PointCheck>,
     /// The points that falsify it, most outside first (indices into `points`).
@@ -491,9 +495,16 @@ pub fn check_against(
             .total_cmp(&points[a].outside_by_kn)
             .then(a.cmp(&b))
     });
+    // Kept at every point, the instance must also be explained by one gain per sensor at
+    // every point the pass read (docs/model.md, "Shared gains").
+    let shared = falsified_by.is_empty()
+        && identifier
+            .shared_keeps(id, sizing, i)
+            .map_err(|e| AuditError::Identify(Box::new(e)))?;
     Ok(Some(MeasuredCheck {
         measurement: id.measurement.clone(),
-        kept: falsified_by.is_empty(),
+        kept: shared,
+        shared_gains_kept: identifier.settings().shared_gains.then_some(shared),
         in_cms: sizing.cms.iter().any(|m| m.instance == stored.instance),
         points,
         falsified_by,

@@ -10,7 +10,7 @@
 // cells and the falsification rule); the pass as the bank sees it (`input`); the state kept
 // between passes and its accessors (`identifier`); where to compare (`select`) and detection
 // (`detect`); what the answer says (`answer`); the stages of a pass (`prepare`, the sizing
-// `stages`, the whole `pipeline`); and the refinement beside it (`refine`). This file only
+// `stages` and their shared-gain stage (`shared_stage`), the whole `pipeline`); and the refinement beside it (`refine`). This file only
 // declares them and names the public paths.
 pub(crate) mod answer;
 pub(crate) mod detect;
@@ -23,6 +23,7 @@ mod pipeline;
 mod prepare;
 pub mod refine;
 pub(crate) mod select;
+mod shared_stage;
 mod stages;
 pub mod synth;
 

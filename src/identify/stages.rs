@@ -21,6 +21,7 @@ use super::select::entropy::{
     self, bin_into, binned_columns, greedy_joint_entropy, Binned, Selection,
 };
 use super::select::envelope::{self, EnvelopePoint};
+use super::shared_stage::SharedInput;
 use crate::identify::answer::identification::Identification;
 use crate::identify::answer::sizing::Sizing;
 use crate::identify::detect::Detection;
@@ -306,17 +307,24 @@ impl Identifier {
         let shares = self
             .discretisation()
             .filter(|_| z.comparison == crate::identify::input::compare::Comparison::Samples);
-        let (eip_steps, env_steps) = match shares {
+        // The shared stage reads every candidate's steps; the EIP's are among them.
+        let shared = s.shared_gains;
+        let every: Vec<usize> = (0..measured.len()).collect();
+        let (cand_steps, env_steps) = match shares {
             Some(_) => self.allowance_steps(
                 z.used,
                 series,
                 z.cands,
-                order,
+                if shared { &every } else { order },
                 &read.predictions,
                 &read.env_columns,
                 hw,
             )?,
             None => (Vec::new(), Vec::new()),
+        };
+        let eip_steps: Vec<Vec<f32>> = match (shares, shared) {
+            (Some(_), true) => order.iter().map(|&i| cand_steps[i].clone()).collect(),
+            _ => cand_steps.clone(),
         };
         let point = |i: usize| Point {
             predictions: read.predictions[i],
@@ -346,6 +354,23 @@ impl Identifier {
         );
         let cms_idx = falsify(&method_points, self.resolution());
         laps.lap("falsify");
+        let cms_idx = if shared {
+            let input = SharedInput {
+                sensors: z.cands.iter().map(|c| c.series).collect(),
+                predictions: &read.predictions,
+                measured,
+                flat_free: &read.flat_free,
+                envelope: (&env_reported, &env_features),
+                env_flat_free: &env_flat_free,
+                allowance: shares.map(|sh| (sh, cand_steps.as_slice(), env_steps.as_slice())),
+                bounds: z.roughness.bounds(self.bounds),
+            };
+            let kept = self.shared_gains(&input, cms_idx);
+            laps.lap("shared gains");
+            kept
+        } else {
+            cms_idx
+        };
         let (cms, below_population) =
             self.departure_rule(cms_idx, axes, (detection, z.comparison))?;
         laps.lap("departures");

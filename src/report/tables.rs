@@ -274,6 +274,13 @@ pub fn audit_table(c: &MeasuredCheck) -> String {
             c.points.len(),
             if c.in_cms { "member of" } else { "NOT in" }
         )
+    } else if c.falsified_by.is_empty() {
+        format!(
+            "against {}: RULED OUT by the shared gains — inside the admissible residual at all {} comparison points, but no gain per sensor inside the table's bounds explains it at every point the pass read (docs/model.md, \"Shared gains\"); {} the candidate model set\n",
+            c.measurement,
+            c.points.len(),
+            if c.in_cms { "yet member of" } else { "not in" }
+        )
     } else {
         format!(
             "against {}: FALSIFIED at {} of {} comparison points (per-point probability {:.5}); {} the candidate model set\n",
@@ -521,6 +528,7 @@ mod tests {
             measurement: "m.csv".into(),
             kept: false,
             in_cms: false,
+            shared_gains_kept: None,
             points: vec![point(1, -0.5), point(2, 1.5), point(3, 0.5)],
             falsified_by: vec![1, 2],
             per_point_probability: 0.99,
@@ -539,11 +547,28 @@ mod tests {
     }
 
     #[test]
+    fn an_instance_inside_every_point_but_no_shared_gain_says_so() {
+        let c = MeasuredCheck {
+            measurement: "m.csv".into(),
+            kept: false,
+            in_cms: false,
+            shared_gains_kept: Some(false),
+            points: vec![point(1, -0.5)],
+            falsified_by: vec![],
+            per_point_probability: 0.99,
+        };
+        assert!(audit_table(&c).starts_with(
+            "against m.csv: RULED OUT by the shared gains — inside the admissible residual at all 1 comparison points"
+        ));
+    }
+
+    #[test]
     fn a_kept_instance_names_its_closest_margin() {
         let c = MeasuredCheck {
             measurement: "m.csv".into(),
             kept: true,
             in_cms: true,
+            shared_gains_kept: Some(true),
             points: vec![point(1, -0.5), point(2, -0.25)],
             falsified_by: vec![],
             per_point_probability: 0.99,

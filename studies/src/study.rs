@@ -246,3 +246,26 @@ pub fn filter_from_env() -> wheelflat::model::ContactFilter {
         },
     }
 }
+
+/// Draws the physics of one pass onto `base` (a copy), from `state` (issue 56): wheel,
+/// bogie masses and bogie inertia ×[0.95, 1.05], primary stiffness and damping ×[0.9, 1.1]
+/// (the paper's Table 3), the Hertz flexibility G ×[0.9, 1.1], pad damping ×[0.7, 1.3],
+/// sleeper mass ×[0.9, 1.1].
+pub fn physics(
+    base: &wheelflat::model::Calibration,
+    state: &mut u64,
+) -> wheelflat::model::Calibration {
+    let mut c = base.clone();
+    let mut f = |lo: f64, hi: f64| lo + splitmix_uniform(state) * (hi - lo);
+    c.vehicle.wheel_mass_kg *= f(0.95, 1.05);
+    c.vehicle.bogie_mass_kg *= f(0.95, 1.05);
+    c.vehicle.bogie_pitch_inertia_kg_m2 *= f(0.95, 1.05);
+    c.vehicle.primary_stiffness_n_per_m *= f(0.9, 1.1);
+    c.vehicle.primary_damping_ns_per_m *= f(0.9, 1.1);
+    let ch = base.clone().check().expect("defaults").hertz_constant();
+    // C_H = G^-1.5: G scaled by s scales C_H by s^-1.5.
+    c.contact.hertz_constant_n_per_m1_5 = Some(ch * f(0.9, 1.1).powf(-1.5));
+    c.track.pad_damping_ns_per_m *= f(0.7, 1.3);
+    c.track.sleeper_mass_kg *= f(0.9, 1.1);
+    c
+}

@@ -217,3 +217,60 @@ fn watch_refine_refines_each_answer() {
     .unwrap();
     assert_eq!(json["refinement"]["simulations"], 48);
 }
+
+/// Issue 56, landings resolved by simulation (`refine_landings`): the same refinement with a
+/// landing budget simulates landing flats at the L0 bounds on the landings calibration and only
+/// removes flats from what it would answer without, within its budget, saying so; the ranges
+/// stay inside the ones without.
+#[test]
+fn the_landing_check_only_removes_flats_within_its_budget() {
+    let (_, cal) = small_bank();
+    let id = identifier();
+    let sim = Simulator::new(cal).unwrap();
+    let with = |landings| RefineSettings {
+        simulations: 160,
+        landings: Some(landings),
+        ..RefineSettings::default()
+    };
+    let mut simulated = 0;
+    for (case, flat) in coverage::truths(cal, 6, 17).iter().enumerate() {
+        let (m, _) = coverage::case(cal, flat, 17, case).unwrap();
+        let out = id.identify(&m, None, Extras::NONE).unwrap();
+        let plain = refine(&id, &sim, &out, with(0)).unwrap();
+        let checked = refine(&id, &sim, &out, with(16)).unwrap();
+        assert_eq!(plain.landings_simulated, 0);
+        assert!(checked.landings_simulated <= 16, "case {case}");
+        assert_eq!(
+            checked.simulations,
+            plain.simulations + checked.landings_simulated,
+            "case {case}"
+        );
+        simulated += checked.landings_simulated;
+        let (Some(a), Some(b)) = (plain.ranges.as_ref(), checked.ranges.as_ref()) else {
+            continue;
+        };
+        // Only removed: every flat it drops counted (when it would drop every survivor, the
+        // answer before the check stands).
+        if checked.survivors < plain.survivors {
+            assert_eq!(
+                checked.survivors + checked.landings_removed,
+                plain.survivors,
+                "case {case}"
+            );
+        } else {
+            assert_eq!(checked.survivors, plain.survivors, "case {case}");
+        }
+        assert!(
+            a.l0_mm[0] <= b.l0_mm[0] && b.l0_mm[1] <= a.l0_mm[1],
+            "case {case}"
+        );
+        if checked.landings_simulated > 0 {
+            assert!(
+                checked.summary.contains("landings calibration"),
+                "{}",
+                checked.summary
+            );
+        }
+    }
+    assert!(simulated > 0, "some case has landing flats at its bounds");
+}

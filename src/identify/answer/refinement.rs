@@ -43,6 +43,17 @@ pub struct Refinement {
     /// the JSON; empty when the bank-only answer stands).
     #[serde(skip)]
     pub cells: Vec<([f64; 6], WheelPosition)>,
+    /// Landing flats simulated on the landings calibration at the L0 bounds (docs/
+    /// identification.md, "Landings resolved").
+    #[serde(default)]
+    pub landings_simulated: usize,
+    /// ... of which ruled out without the landing allowance.
+    #[serde(default)]
+    pub landings_removed: usize,
+    /// Whether each L0 bound (lower, upper) was settled by the check within its budget
+    /// (absent: no check ran).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub landings_settled: Option<[bool; 2]>,
 }
 
 impl Refinement {
@@ -59,6 +70,9 @@ impl Refinement {
             maintenance_hint: String::new(),
             severity: None,
             cells: Vec::new(),
+            landings_simulated: 0,
+            landings_removed: 0,
+            landings_settled: None,
         }
     }
 }

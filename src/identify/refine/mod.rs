@@ -17,7 +17,8 @@
 //!    metric (sensitivities per mm × the local box), cells as in the bank, the same
 //!    falsification at the same points and thresholds (EIP and envelope points, per-point
 //!    probability of the bank-only answer, thresholds at the prediction's force) with the same
-//!    κ;
+//!    κ, then, with `shared_gains`, the same shared-gain stage at every PIP candidate and
+//!    envelope point (one gain per sensor, [`super::domain::shared_gain`]);
 //! 4. its survivors are the next round's seeds; the answer is the union of the last round's
 //!    surviving cells. A round with no survivor ends the refinement and the previous round's
 //!    answer stands (said in the result).
@@ -32,12 +33,14 @@
 //! round judged at every sample of the record (severity right 0.73 against 0.63, coverage
 //! 0.80–0.87 on the finer-model cases).
 
+mod landing;
 mod local;
 mod points;
 
 use super::answer::identification::Identification;
 pub use super::answer::refinement::{RefineRound, Refinement};
 use super::domain::falsify::{falsify, largest_step, Resolution};
+use super::domain::shared_gain::{keep, GainBounds, ModelForm};
 use crate::identify::error::IdentifyError;
 use crate::identify::identifier::Identifier;
 use crate::model::{Simulator, WheelPosition};
@@ -66,6 +69,10 @@ pub struct RefineSettings {
     /// answer's L0 bounds are decided there (1: an even share; 1–16; default 4, measured in
     /// docs/performance.md, "Refinement").
     pub ends_weight: usize,
+    /// Simulations on the landings calibration that check the landing flats at the L0 bounds
+    /// without the landing allowance ([`landing`]; 0: none; 0–256; `None`: the settings'
+    /// `refine_landings`).
+    pub landings: Option<usize>,
 }
 
 impl Default for RefineSettings {
@@ -76,6 +83,7 @@ impl Default for RefineSettings {
             seed: 1,
             kappa: None,
             ends_weight: 4,
+            landings: None,
         }
     }
 }
@@ -105,6 +113,13 @@ impl RefineSettings {
                 setting: "ends weight",
                 value: self.ends_weight.to_string(),
                 range: "1–16",
+            });
+        }
+        if let Some(l) = self.landings.filter(|&l| l > 256) {
+            return Err(IdentifyError::Setting {
+                setting: "landing simulations",
+                value: l.to_string(),
+                range: "0–256",
             });
         }
         if !(1..=8).contains(&self.rounds) {
@@ -173,7 +188,9 @@ pub fn refine(
         return Ok(out);
     };
     let cmp = Comparison::of(identifier, id, sizing);
-    let method_points = cmp.at.len();
+    let method_points = cmp.method;
+    // Every point read: the method's, then (with the shared-gain stage) every PIP candidate.
+    let all_points = cmp.at.len();
 
     // Seeds: the bank's survivors with their cells and their stored predictions. With a
     // discretisation allowance each point is read over the samples its step spans (a sample
@@ -181,7 +198,7 @@ pub fn refine(
     let shares = identifier.discretisation();
     let mut columns: Vec<usize> = Vec::new();
     let mut spans: Vec<(usize, usize, usize)> = Vec::new(); // (first column, first, last sample)
-    for &at in &cmp.at[..method_points] {
+    for &at in &cmp.at {
         let (lo, hi) = if shares.is_some() {
             Comparison::step_span(at, cmp.axes[at.0].samples - 1)
         } else {
@@ -200,7 +217,7 @@ pub fn refine(
                 .resolution()
                 .map_or([0.0; 4], |r| r.cells.half_extent(k));
             let (mut g, mut steps) = (Vec::new(), Vec::new());
-            for (&at, &(first, lo, hi)) in cmp.at[..method_points].iter().zip(&spans) {
+            for (&at, &(first, lo, hi)) in cmp.at.iter().zip(&spans) {
                 let read = |j: usize| stored[first + j - lo][k];
                 g.push(Comparison::value(at, read));
                 if shares.is_some() {
@@ -226,7 +243,19 @@ pub fn refine(
     if seeds.is_empty() {
         return Ok(finish(out, t0, identifier));
     }
+    let rough_bounds = id
+        .roughness
+        .clone()
+        .unwrap_or_else(|| crate::identify::detect::roughness::RoughnessUse::none(0.0, 0.0))
+        .bounds(identifier.bounds);
     let mut state = settings.seed ^ 0x5DEE_CE66_D1CE_4E5B;
+    // The last round's population, for the landing check.
+    let mut last: Option<(
+        Vec<Member>,
+        crate::identify::domain::cells::Cells,
+        Vec<Vec<f32>>,
+        Vec<u32>,
+    )> = None;
     for round in 0..settings.rounds {
         let budget = settings.simulations / settings.rounds
             + usize::from(round < settings.simulations % settings.rounds);
@@ -253,10 +282,10 @@ pub fn refine(
         for (i, m) in members.iter_mut().enumerate() {
             m.half = cells.half_extent(i);
         }
-        let columns: Vec<Vec<f32>> = (0..method_points)
+        let columns: Vec<Vec<f32>> = (0..all_points)
             .map(|p| members.iter().map(|m| m.g[p]).collect())
             .collect();
-        let steps: Vec<Vec<f32>> = (0..method_points)
+        let steps: Vec<Vec<f32>> = (0..all_points)
             .map(|p| {
                 members
                     .iter()
@@ -272,13 +301,27 @@ pub fn refine(
             &steps,
             any.then_some(shares.as_slice()),
         );
-        let alive = falsify(
-            &points,
-            (kappa > 0.0).then_some(Resolution {
-                cells: &cells,
-                kappa,
-            }),
-        );
+        let res = (kappa > 0.0).then_some(Resolution {
+            cells: &cells,
+            kappa,
+        });
+        let mut alive = falsify(&points, res);
+        if all_points > method_points {
+            // One gain per sensor at every point read (docs/model.md, "Shared gains").
+            let shared = cmp.shared_points(
+                &columns,
+                &steps,
+                any.then_some(shares.as_slice()),
+                &rough_bounds,
+            );
+            alive = keep(
+                &shared,
+                &alive,
+                GainBounds::of(&rough_bounds),
+                ModelForm::of(identifier.settings().shared_model_form),
+                |k, i| res.map_or(0.0, |r| r.kappa * r.cells.spread(shared[i].predictions, k)),
+            );
+        }
         let kept: Vec<Member> = alive.iter().map(|&k| members[k as usize].clone()).collect();
         let ranges = ranges_of(&kept, pop, radius);
         out.rounds.push(RefineRound {
@@ -293,6 +336,43 @@ pub fn refine(
         out.ranges = ranges;
         out.survivors = kept.len();
         seeds = kept;
+        last = Some((members, cells, columns, alive));
+    }
+    // Landings resolved by simulation where they decide the bounds (landing.rs).
+    let landings = settings
+        .landings
+        .unwrap_or(identifier.settings().refine_landings);
+    if let (Some((members, cells, columns, alive)), true) = (
+        last.filter(|_| !out.stopped_early),
+        landings > 0 && shares.is_some(),
+    ) {
+        let lsim = landing::landings_simulator(identifier)?;
+        let round = landing::Round {
+            members: &members,
+            cells: &cells,
+            columns: &columns,
+            alive,
+        };
+        let (alive, done) = landing::check(
+            identifier,
+            &lsim,
+            &cmp,
+            round,
+            kappa,
+            &rough_bounds,
+            landings,
+        )?;
+        out.simulations += done.simulated;
+        out.landings_simulated = done.simulated;
+        out.landings_removed = done.removed;
+        out.landings_settled = Some(done.settled);
+        // A check that would leave nothing lets the answer before it stand (a refuted class
+        // is diagnose's to name, not the landing check's).
+        if !alive.is_empty() {
+            seeds = alive.iter().map(|&k| members[k as usize].clone()).collect();
+            out.ranges = ranges_of(&seeds, pop, radius);
+            out.survivors = seeds.len();
+        }
     }
     if out.ranges.is_some() {
         let clamp = [pop.length_mm, pop.depth_mm, pop.curvature_mm];
@@ -357,8 +437,21 @@ fn finish(mut out: Refinement, t0: std::time::Instant, identifier: &Identifier) 
             } else {
                 String::new()
             };
+            let landings = if out.landings_simulated > 0 {
+                format!(
+                    " Landings: {} flats at the L0 bounds simulated on the landings calibration, {} ruled out without the allowance{}.",
+                    out.landings_simulated,
+                    out.landings_removed,
+                    match out.landings_settled {
+                        Some([true, true]) | None => "",
+                        Some(_) => " (the budget spent before a bound was settled)",
+                    }
+                )
+            } else {
+                String::new()
+            };
             format!(
-                "refined: {} flats survive after {} simulations in {rounds} rounds ({:.1} s){early}: L in [{:.0}, {:.0}] mm, d in [{:.2}, {:.2}] mm, L0 in [{:.0}, {:.0}] mm, X_p in [{:.3}, {:.3}] m.",
+                "refined: {} flats survive after {} simulations in {rounds} rounds ({:.1} s){early}: L in [{:.0}, {:.0}] mm, d in [{:.2}, {:.2}] mm, L0 in [{:.0}, {:.0}] mm, X_p in [{:.3}, {:.3}] m.{landings}",
                 out.survivors, out.simulations, out.time_ms / 1e3,
                 r.length_mm[0], r.length_mm[1], r.depth_mm[0], r.depth_mm[1],
                 r.l0_mm[0], r.l0_mm[1], r.impact_position_m[0], r.impact_position_m[1]

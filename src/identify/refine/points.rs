@@ -37,6 +37,13 @@ pub(super) struct Comparison {
     /// The average the identification compared through (`[1.0]`: the samples), which the new
     /// flats' series go through too.
     pub(super) average: &'static [f64],
+    /// The points falsification judges (`at[..method]`: EIP, then envelope points); after
+    /// them every PIP candidate, which the shared-gain stage reads too (none without it).
+    pub(super) method: usize,
+    /// Where the envelope points start.
+    pub(super) envelope_from: usize,
+    /// Each point's flat-free prediction (kN): the sample's, a window's peak.
+    pub(super) flat_free: Vec<f64>,
 }
 
 impl Comparison {
@@ -60,7 +67,12 @@ impl Comparison {
             thresholds: Vec::new(),
             curves: Vec::new(),
             average: id.comparison.weights(),
+            method: 0,
+            envelope_from: sizing.eip.len(),
+            flat_free: Vec::new(),
         };
+        let signed =
+            |axis: usize, k: usize| f64::from(identifier.flat_free(axis, id.comparison)[k]);
         for &e in &sizing.eip {
             let cand = &sizing.candidates[e];
             c.at.push((axis_of(cand.series), cand.sample, cand.sample, Read::Sample));
@@ -75,6 +87,7 @@ impl Comparison {
             );
             c.curves
                 .push(identifier.point_curve(&rough, cand.measured_kn, ff, p));
+            c.flat_free.push(signed(axis_of(cand.series), cand.sample));
         }
         for x in &sizing.envelope {
             c.at.push((
@@ -97,8 +110,43 @@ impl Comparison {
             );
             c.curves
                 .push(identifier.point_curve(&rough, x.measured_kn, ff, p));
+            c.flat_free.push(ff);
+        }
+        c.method = c.at.len();
+        if identifier.settings().shared_gains {
+            for cand in &sizing.candidates {
+                let axis = axis_of(cand.series);
+                c.at.push((axis, cand.sample, cand.sample, Read::Sample));
+                c.measured.push(cand.measured_kn);
+                c.flat_free.push(signed(axis, cand.sample));
+            }
         }
         c
+    }
+
+    /// The points the shared-gain stage judges (every point but the EIP, which are among the
+    /// candidates) over `columns` (one per point), with the members' allowances.
+    pub(super) fn shared_points<'a>(
+        &'a self,
+        columns: &'a [Vec<f32>],
+        steps: &'a [Vec<f32>],
+        shares: Option<&'a [f32]>,
+        bounds: &crate::identify::domain::table_bounds::TableBounds,
+    ) -> Vec<crate::identify::domain::shared_gain::SharedPoint<'a>> {
+        let b = *bounds;
+        (self.envelope_from..self.at.len())
+            .map(|p| {
+                let ff = self.flat_free[p];
+                crate::identify::domain::shared_gain::SharedPoint {
+                    sensor: self.at[p].0,
+                    predictions: &columns[p],
+                    measured_kn: self.measured[p],
+                    flat_free_kn: ff,
+                    bound_kn: b.absolute_kn + b.bound_kn + b.good_wheel_fraction * ff.abs(),
+                    allowance: shares.map(|sh| (sh, steps[p].as_slice())),
+                }
+            })
+            .collect()
     }
 
     /// The falsification points `range` of the comparison over `columns` (one per point).

@@ -431,6 +431,17 @@ impl Calibration {
         within("identification.discretisation_fraction", d, 0.0, 1.0)?;
         let r = id.discretisation_dynamic_ratio;
         within("identification.discretisation_dynamic_ratio", r, 0.0, 100.0)?;
+        let [a, b, c] = id.shared_model_form;
+        within("identification.shared_model_form[0]", a, 0.0, 1.0)?;
+        within("identification.shared_model_form[1]", b, 0.0, 1.0)?;
+        within("identification.shared_model_form[2]", c, 0.0, 1000.0)?;
+        if id.refine_landings > 256 {
+            return Err(invalid(
+                "identification.refine_landings",
+                id.refine_landings,
+                "must be 0 to 256 simulations",
+            ));
+        }
         for (i, u) in id.uncertainty.iter().enumerate() {
             finite(&format!("identification.uncertainty[{i}].min"), u.min)?;
             finite(&format!("identification.uncertainty[{i}].max"), u.max)?;

@@ -40,6 +40,9 @@ impl Default for IdentificationParams {
             departure_model_form_fraction: 0.25,
             discretisation_fraction: super::DISCRETISATION_FRACTION,
             discretisation_dynamic_ratio: super::DISCRETISATION_DYNAMIC_RATIO,
+            shared_gains: true,
+            shared_model_form: super::SHARED_MODEL_FORM,
+            refine_landings: 0,
             wheel_roughness: super::WheelRoughness::Auto,
             rail_roughness: super::RailRoughness::Smooth,
             uncertainty: vec![

@@ -187,6 +187,23 @@ fn default_discretisation_dynamic_ratio() -> f64 {
     DISCRETISATION_DYNAMIC_RATIO
 }
 
+/// [`IdentificationParams::shared_gains`]' default.
+fn default_shared_gains() -> bool {
+    true
+}
+
+/// [`IdentificationParams::shared_model_form`]'s default.
+fn default_shared_model_form() -> [f64; 3] {
+    SHARED_MODEL_FORM
+}
+
+/// The default of [`IdentificationParams::shared_model_form`]: 2 % of the prediction, 10 % of
+/// its departure from the good wheel and 2 kN hold every sample of 48 physics-varied flats
+/// (Table 3's vehicle, contact ±10 %, pad damping ±30 %, sleeper mass ±10 %; converged
+/// reference against the bank's mesh, the landing allowance beside; largest use 1.96 kN of
+/// the 2; `physics_gap 48 5`, 2026-11-28).
+pub const SHARED_MODEL_FORM: [f64; 3] = [0.02, 0.1, 2.0];
+
 /// The default of [`IdentificationParams::discretisation_dynamic_ratio`]: 95 % of the flats
 /// that lose contact reach 1.92 times the static wheel load on the bank's mesh (600 flats).
 pub const DISCRETISATION_DYNAMIC_RATIO: f64 = 1.9;
@@ -406,6 +423,24 @@ pub struct IdentificationParams {
     /// wheel load (flats that lose contact and land; the others keep the table's mesh term).
     #[serde(default = "default_discretisation_dynamic_ratio")]
     pub discretisation_dynamic_ratio: f64,
+    /// What a pass shares solved per candidate (issue 56; docs/model.md §8, "Shared gains"):
+    /// after the Šídák thresholds, an instance must be explained at every point read (the PIP
+    /// candidates and envelope windows) by one gain per sensor inside the table's relative
+    /// bounds, with hard per-point bounds. `false`: the per-point thresholds alone. Absent
+    /// from a calibration file: `true`.
+    #[serde(default = "default_shared_gains")]
+    pub shared_gains: bool,
+    /// The model-form residual a pass leaves at a point after its shared gain,
+    /// `[fraction of |g|, fraction of |g − g_ff|, kN]` (measured on physics-varied passes
+    /// against the converged reference: `studies/src/bin/physics_gap.rs`). Absent: the
+    /// default.
+    #[serde(default = "default_shared_model_form")]
+    pub shared_model_form: [f64; 3],
+    /// A refinement's simulations on the landings calibration that check the landing flats
+    /// at the L0 bounds without the landing allowance (docs/identification.md, "Landings
+    /// resolved"; 0: none, 0–256). Absent: 0 (each costs about 13 bank simulations).
+    #[serde(default)]
+    pub refine_landings: usize,
     /// The wheels' roughness class (docs/detection.md, "Rough wheels"): `auto` (read from each
     /// pass's record, by its high-frequency level), `round`, or a class (`disc`, `composite`,
     /// `cast-iron`, `cast-iron-rough`). Its bound, simulated per bank, widens detection and the

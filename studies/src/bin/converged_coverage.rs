@@ -9,7 +9,7 @@
 //! of the identification settings compare on the same passes. Each case is identified bank-only
 //! (and, with `refine`, refined); one line per case, then coverage, refuted cases and the
 //! median L0 width for the cases whose flat lost contact and for the others.
-//! `WHEELS=round|auto|…` overrides `wheel_roughness`, `DISC=α` `discretisation_fraction`, `DISC_RATIO` `discretisation_dynamic_ratio`; `KAPPA=κ` the bank resolution.
+//! `WHEELS=round|auto|…` overrides `wheel_roughness`, `DISC=α` `discretisation_fraction`, `DISC_RATIO` `discretisation_dynamic_ratio`; `KAPPA=κ` the bank resolution; `SHARED=0` turns the shared-gain stage off.
 use wheelflat_studies::study;
 
 use rayon::prelude::*;
@@ -57,6 +57,9 @@ fn main() {
     }
     if let Ok(k) = std::env::var("KAPPA") {
         settings.bank_resolution = k.parse().expect("KAPPA is a number");
+    }
+    if let Ok(v) = std::env::var("SHARED") {
+        settings.shared_gains = v != "0";
     }
     let id = Identifier::new(bank, settings).expect("identifier");
     let sim = Simulator::new(&cal).expect("bank model");

@@ -222,6 +222,9 @@ fn a_refined_answer_is_shown_and_read_back() {
         maintenance_hint: "refined verdict: inspect".into(),
         severity: None,
         cells: Vec::new(),
+        landings_simulated: 8,
+        landings_removed: 3,
+        landings_settled: Some([true, false]),
     });
     let tmp = tempfile::tempdir().expect("tempdir");
     let files = write_identification_report(&id, tmp.path()).expect("write report");

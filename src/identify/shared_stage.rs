@@ -1,0 +1,172 @@
+//! The shared-gain stage of [`Identifier::judge`] (issue 56; docs/model.md §8, "Shared
+//! gains"): the survivors of the per-point thresholds judged again at every point the pass
+//! read — each PIP candidate and each envelope window's extremes — with one gain per sensor
+//! solved for each instance inside the table's relative bounds, and only what is truly per
+//! point bounded per point ([`crate::identify::domain::shared_gain`]).
+
+use crate::identify::answer::identification::Identification;
+use crate::identify::answer::sizing::Sizing;
+use crate::identify::domain::falsify;
+use crate::identify::domain::falsify::Resolution;
+use crate::identify::domain::shared_gain::{self, GainBounds, ModelForm, SharedPoint};
+use crate::identify::domain::table_bounds::TableBounds;
+use crate::identify::error::IdentifyError;
+use crate::identify::identifier::Identifier;
+use crate::identify::select::envelope;
+use crate::identify::select::envelope::EnvelopePoint;
+
+/// What the shared stage reads of a pass: every point with its predictions, and the
+/// allowance's shares and steps where the samples are compared one by one.
+pub(super) struct SharedInput<'a> {
+    /// Each PIP candidate's sensor (its series).
+    pub(super) sensors: Vec<usize>,
+    /// Every instance's prediction at each candidate.
+    pub(super) predictions: &'a [&'a [f32]],
+    /// The measured force at each candidate (kN).
+    pub(super) measured: &'a [f64],
+    /// The flat-free prediction at each candidate (kN).
+    pub(super) flat_free: &'a [f64],
+    /// The envelope points (a window's maximum, then its minimum) and their predictions.
+    pub(super) envelope: (&'a [EnvelopePoint], &'a [Vec<f32>]),
+    /// The flat-free peak of each envelope window (kN).
+    pub(super) env_flat_free: &'a [f64],
+    /// The landing allowance: each instance's share, the steps at each candidate and at each
+    /// envelope window (`None`: none).
+    pub(super) allowance: Option<(&'a [f32], &'a [Vec<f32>], &'a [Vec<f32>])>,
+    /// The bounds of the pass (the table's, with its roughness).
+    pub(super) bounds: TableBounds,
+}
+
+impl Identifier {
+    /// The instances of `alive` that one gain per sensor explains at every point of `input`.
+    pub(super) fn shared_gains(&self, input: &SharedInput<'_>, alive: Vec<u32>) -> Vec<u32> {
+        if alive.is_empty() {
+            return alive;
+        }
+        let b = input.bounds;
+        let bound = |ff: f64| b.absolute_kn + b.bound_kn + b.good_wheel_fraction * ff.abs();
+        let mut points: Vec<SharedPoint> = (0..input.measured.len())
+            .map(|i| SharedPoint {
+                sensor: input.sensors[i],
+                predictions: input.predictions[i],
+                measured_kn: input.measured[i],
+                flat_free_kn: input.flat_free[i],
+                bound_kn: bound(input.flat_free[i]),
+                allowance: input
+                    .allowance
+                    .map(|(shares, steps, _)| (shares, steps[i].as_slice())),
+            })
+            .collect();
+        let (env, features) = input.envelope;
+        points.extend(env.iter().zip(features).enumerate().map(|(j, (e, f))| {
+            let ff = input.env_flat_free[j / 2];
+            SharedPoint {
+                sensor: e.series,
+                predictions: f,
+                measured_kn: e.measured_kn,
+                flat_free_kn: ff,
+                bound_kn: bound(ff),
+                allowance: input
+                    .allowance
+                    .map(|(shares, _, steps)| (shares, steps[j / 2].as_slice())),
+            }
+        }));
+        let gain = GainBounds::of(&b);
+        let form = ModelForm::of(self.settings.shared_model_form);
+        let res: Option<Resolution> = self.resolution();
+        shared_gain::keep(&points, &alive, gain, form, |k, i| {
+            res.map_or(0.0, |r| r.kappa * r.cells.spread(points[i].predictions, k))
+        })
+    }
+
+    /// Whether the shared stage keeps instance `k` of the bank against identification `id`
+    /// (sized as `sizing`): the stage rebuilt from what `identification.json` holds — every
+    /// PIP candidate and envelope window re-read from the bank — for `audit`. `true` when the
+    /// settings have no shared stage.
+    pub(crate) fn shared_keeps(
+        &self,
+        id: &Identification,
+        sizing: &Sizing,
+        k: usize,
+    ) -> Result<bool, IdentifyError> {
+        if !self.settings.shared_gains {
+            return Ok(true);
+        }
+        let axes = &self.bank.metadata().sensors;
+        let axis_of = |series: usize| {
+            axes.iter()
+                .position(|a| a.name == id.series[series].sensor)
+                .expect("identified sensors are the bank's")
+        };
+        let cmp = id.comparison;
+        let n = self.bank.instances();
+        let read = |points: &[(usize, usize)]| -> Result<Vec<Vec<f32>>, IdentifyError> {
+            let mut flat = vec![0.0f32; points.len() * n];
+            self.read_compared(points, cmp, &mut flat)?;
+            Ok(flat.chunks(n.max(1)).map(<[f32]>::to_vec).collect())
+        };
+        let cands = &sizing.candidates;
+        let at: Vec<(usize, usize)> = cands
+            .iter()
+            .map(|c| (axis_of(c.series), c.sample))
+            .collect();
+        let columns = read(&at)?;
+        let predictions: Vec<&[f32]> = columns.iter().map(Vec::as_slice).collect();
+        let flat_free: Vec<f64> = at
+            .iter()
+            .map(|&(a, j)| f64::from(self.flat_free(a, cmp)[j]))
+            .collect();
+        let measured: Vec<f64> = cands.iter().map(|c| c.measured_kn).collect();
+        let hw = sizing.envelope.first().map_or(0, |x| x.half_width);
+        let mut env_columns = Vec::new();
+        let mut env_flat_free = Vec::new();
+        for x in sizing.envelope.iter().step_by(2) {
+            let a = axis_of(x.series);
+            let window: Vec<(usize, usize)> =
+                (x.sample - hw..=x.sample + hw).map(|j| (a, j)).collect();
+            env_columns.extend(read(&window)?);
+            env_flat_free.push(self.flat_free_peak_kn(a, x.sample - hw, x.sample + hw, cmp));
+        }
+        let windows: Vec<Vec<&[f32]>> = env_columns
+            .chunks(2 * hw + 1)
+            .map(|w| w.iter().map(Vec::as_slice).collect())
+            .collect();
+        let features: Vec<Vec<f32>> = sizing
+            .envelope
+            .iter()
+            .enumerate()
+            .map(|(j, x)| envelope::feature(&windows[j / 2], x.kind == envelope::Extreme::Max))
+            .collect();
+        let shares = self
+            .discretisation()
+            .filter(|_| cmp == crate::identify::input::compare::Comparison::Samples);
+        let (cand_steps, env_steps) = match shares {
+            Some(_) => {
+                let mut steps = Vec::with_capacity(at.len());
+                for (i, &(a, j)) in at.iter().enumerate() {
+                    let last = axes[a].samples - 1;
+                    let side = read(&[(a, j.saturating_sub(1)), (a, (j + 1).min(last))])?;
+                    steps.push(falsify::steps(&[&side[0], predictions[i], &side[1]]));
+                }
+                let env: Vec<Vec<f32>> = windows.iter().map(|w| falsify::steps(w)).collect();
+                (steps, env)
+            }
+            None => (Vec::new(), Vec::new()),
+        };
+        let rough = id
+            .roughness
+            .clone()
+            .unwrap_or_else(|| crate::identify::detect::roughness::RoughnessUse::none(0.0, 0.0));
+        let input = SharedInput {
+            sensors: cands.iter().map(|c| c.series).collect(),
+            predictions: &predictions,
+            measured: &measured,
+            flat_free: &flat_free,
+            envelope: (&sizing.envelope, &features),
+            env_flat_free: &env_flat_free,
+            allowance: shares.map(|sh| (sh, cand_steps.as_slice(), env_steps.as_slice())),
+            bounds: rough.bounds(self.bounds),
+        };
+        Ok(!self.shared_gains(&input, vec![k as u32]).is_empty())
+    }
+}
