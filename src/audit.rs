@@ -296,8 +296,7 @@ pub struct MeasuredCheck {
     pub kept: bool,
     /// Member of the identification's candidate model set (agrees with `kept`).
     pub in_cms: bool,
-    /// Kept at every point and explained by one gain per sensor at every point the pass read
-    /// (`None`: the settings have no shared stage).
+    /// Kept at every point and by one gain per sensor at every point read (`None`: no stage).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub shared_gains_kept: Option<bool>,
     /// Every comparison point, in EIP order.
@@ -495,12 +494,9 @@ pub fn check_against(
             .total_cmp(&points[a].outside_by_kn)
             .then(a.cmp(&b))
     });
-    // Kept at every point, the instance must also be explained by one gain per sensor at
-    // every point the pass read (docs/model.md, "Shared gains").
-    let shared = falsified_by.is_empty()
-        && identifier
-            .shared_keeps(id, sizing, i)
-            .map_err(|e| AuditError::Identify(Box::new(e)))?;
+    // Kept at every point, then by one gain per sensor (docs/model.md, "Shared gains").
+    let keeps = identifier.shared_keeps(id, sizing, i);
+    let shared = falsified_by.is_empty() && keeps.map_err(|e| AuditError::Identify(Box::new(e)))?;
     Ok(Some(MeasuredCheck {
         measurement: id.measurement.clone(),
         kept: shared,

@@ -10,8 +10,9 @@
 // cells and the falsification rule); the pass as the bank sees it (`input`); the state kept
 // between passes and its accessors (`identifier`); where to compare (`select`) and detection
 // (`detect`); what the answer says (`answer`); the stages of a pass (`prepare`, the sizing
-// `stages` and their shared-gain stage (`shared_stage`), the whole `pipeline`); and the refinement beside it (`refine`). This file only
+// `stages` with the allowance's steps (`allowance`) and their shared-gain stage (`shared_stage`), the whole `pipeline`); and the refinement beside it (`refine`). This file only
 // declares them and names the public paths.
+mod allowance;
 pub(crate) mod answer;
 pub(crate) mod detect;
 pub(crate) mod domain;

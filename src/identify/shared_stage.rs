@@ -30,11 +30,19 @@ pub(super) struct SharedInput<'a> {
     pub(super) envelope: (&'a [EnvelopePoint], &'a [Vec<f32>]),
     /// The flat-free peak of each envelope window (kN).
     pub(super) env_flat_free: &'a [f64],
-    /// The landing allowance: each instance's share, the steps at each candidate and at each
-    /// envelope window (`None`: none).
-    pub(super) allowance: Option<(&'a [f32], &'a [Vec<f32>], &'a [Vec<f32>])>,
+    /// The landing allowance (`None`: none).
+    pub(super) allowance: Option<Allowance<'a>>,
     /// The bounds of the pass (the table's, with its roughness).
     pub(super) bounds: TableBounds,
+}
+
+/// The landing allowance of the shared stage: each instance's share, and every instance's
+/// steps at each candidate and at each envelope window.
+#[derive(Clone, Copy)]
+pub(super) struct Allowance<'a> {
+    pub(super) shares: &'a [f32],
+    pub(super) candidates: &'a [Vec<f32>],
+    pub(super) windows: &'a [Vec<f32>],
 }
 
 impl Identifier {
@@ -54,7 +62,7 @@ impl Identifier {
                 bound_kn: bound(input.flat_free[i]),
                 allowance: input
                     .allowance
-                    .map(|(shares, steps, _)| (shares, steps[i].as_slice())),
+                    .map(|a| (a.shares, a.candidates[i].as_slice())),
             })
             .collect();
         let (env, features) = input.envelope;
@@ -68,7 +76,7 @@ impl Identifier {
                 bound_kn: bound(ff),
                 allowance: input
                     .allowance
-                    .map(|(shares, _, steps)| (shares, steps[j / 2].as_slice())),
+                    .map(|a| (a.shares, a.windows[j / 2].as_slice())),
             }
         }));
         let gain = GainBounds::of(&b);
@@ -82,14 +90,14 @@ impl Identifier {
     /// Whether the shared stage keeps instance `k` of the bank against identification `id`
     /// (sized as `sizing`): the stage rebuilt from what `identification.json` holds — every
     /// PIP candidate and envelope window re-read from the bank — for `audit`. `true` when the
-    /// settings have no shared stage.
+    /// settings have no shared stage or the identification fell back to the per-point answer.
     pub(crate) fn shared_keeps(
         &self,
         id: &Identification,
         sizing: &Sizing,
         k: usize,
     ) -> Result<bool, IdentifyError> {
-        if !self.settings.shared_gains {
+        if !self.settings.shared_gains || sizing.shared_gains_fallback {
             return Ok(true);
         }
         let axes = &self.bank.metadata().sensors;
@@ -164,7 +172,11 @@ impl Identifier {
             flat_free: &flat_free,
             envelope: (&sizing.envelope, &features),
             env_flat_free: &env_flat_free,
-            allowance: shares.map(|sh| (sh, cand_steps.as_slice(), env_steps.as_slice())),
+            allowance: shares.map(|shares| Allowance {
+                shares,
+                candidates: &cand_steps,
+                windows: &env_steps,
+            }),
             bounds: rough.bounds(self.bounds),
         };
         Ok(!self.shared_gains(&input, vec![k as u32]).is_empty())

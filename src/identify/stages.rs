@@ -21,11 +21,10 @@ use super::select::entropy::{
     self, bin_into, binned_columns, greedy_joint_entropy, Binned, Selection,
 };
 use super::select::envelope::{self, EnvelopePoint};
-use super::shared_stage::SharedInput;
+use super::shared_stage::{Allowance, SharedInput};
 use crate::identify::answer::identification::Identification;
 use crate::identify::answer::sizing::Sizing;
 use crate::identify::detect::Detection;
-use crate::identify::domain::discretisation::Steps;
 use crate::identify::domain::uncertainty::ThresholdCurve;
 use crate::identify::error::IdentifyError;
 use crate::identify::extras::Extras;
@@ -99,6 +98,8 @@ pub(super) struct Judged {
     pub(super) cms: Vec<u32>,
     /// The measurement is smaller than the population's smallest flat.
     pub(super) below_population: bool,
+    /// The shared-gain stage explained no survivor, and the per-point answer stands.
+    pub(super) shared_fallback: bool,
 }
 
 /// The parts of the result the stages before sizing made.
@@ -362,15 +363,27 @@ impl Identifier {
                 flat_free: &read.flat_free,
                 envelope: (&env_reported, &env_features),
                 env_flat_free: &env_flat_free,
-                allowance: shares.map(|sh| (sh, cand_steps.as_slice(), env_steps.as_slice())),
+                allowance: shares.map(|shares| Allowance {
+                    shares,
+                    candidates: &cand_steps,
+                    windows: &env_steps,
+                }),
                 bounds: z.roughness.bounds(self.bounds),
             };
-            let kept = self.shared_gains(&input, cms_idx);
+            let kept = self.shared_gains(&input, cms_idx.clone());
             laps.lap("shared gains");
-            kept
+            // No survivor explained with one gain per sensor: the pass carries what the
+            // structure leaves out (an out-of-round tread, an effect the bank lacks), and the
+            // per-point answer stands, said so, rather than a refuted class.
+            if kept.is_empty() && !cms_idx.is_empty() {
+                (cms_idx, true)
+            } else {
+                (kept, false)
+            }
         } else {
-            cms_idx
+            (cms_idx, false)
         };
+        let (cms_idx, shared_fallback) = cms_idx;
         let (cms, below_population) =
             self.departure_rule(cms_idx, axes, (detection, z.comparison))?;
         laps.lap("departures");
@@ -385,6 +398,7 @@ impl Identifier {
             method_points,
             cms,
             below_population,
+            shared_fallback,
         })
     }
 
@@ -514,11 +528,14 @@ impl Identifier {
         let population = population_ranges(&meta.calibration);
         let below_population = judged.below_population;
         let refuted = cms.is_empty() && !below_population;
-        let (summary, hint) = if below_population {
+        let (mut summary, hint) = if below_population {
             below_population_words(&population, s)
         } else {
             summarise(&cms_ranges, cms.len(), n, judged.method_points, s)
         };
+        if judged.shared_fallback {
+            summary += " One gain per sensor explains none of them at every point read (an effect the bank does not model, such as an out-of-round tread): the per-point answer stands.";
+        }
         let severity = SeverityRange::of_answer(
             true,
             cms_ranges.as_ref(),
@@ -552,6 +569,7 @@ impl Identifier {
                 random_subsets,
                 model_class_refuted: refuted,
                 below_population,
+                shared_gains_fallback: judged.shared_fallback,
             }),
             detection: Some(prepared.detection),
             roughness: Some(z.roughness.clone()),
@@ -562,46 +580,5 @@ impl Identifier {
             timings_ms: laps.laps,
             refinement: None,
         })
-    }
-}
-
-impl Identifier {
-    /// Every instance's steps at the EIP points `order` (indices into the candidates `cands`,
-    /// whose predictions are `predictions`) — from the samples either side, two more columns a
-    /// point — and at the envelope windows (their `2·hw + 1` columns each, `env_columns`).
-    #[allow(clippy::too_many_arguments)]
-    pub(in crate::identify) fn allowance_steps(
-        &self,
-        used: &[(usize, usize)],
-        series: &[MeasuredSeries],
-        cands: &[Candidate],
-        order: &[usize],
-        predictions: &[&[f32]],
-        env_columns: &[&[f32]],
-        hw: usize,
-    ) -> Result<Steps, IdentifyError> {
-        let sides: Vec<usize> = order
-            .iter()
-            .flat_map(|&i| {
-                let Candidate {
-                    series: si,
-                    sample: k,
-                    ..
-                } = cands[i];
-                let (b, last) = (used[si].1, series[si].values_kn.len() - 1);
-                [
-                    self.bank.sample_index(b, k.saturating_sub(1)),
-                    self.bank.sample_index(b, (k + 1).min(last)),
-                ]
-            })
-            .collect();
-        let side = self.bank.read_columns(&sides)?;
-        let eip: Vec<Vec<f32>> = order
-            .iter()
-            .enumerate()
-            .map(|(j, &i)| falsify::steps(&[&side[2 * j], predictions[i], &side[2 * j + 1]]))
-            .collect();
-        let env: Vec<Vec<f32>> = env_columns.chunks(2 * hw + 1).map(falsify::steps).collect();
-        Ok((eip, env))
     }
 }

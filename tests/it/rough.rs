@@ -200,6 +200,19 @@ fn an_out_of_round_good_wheel_is_named_not_sized() {
         "{}",
         r.summary
     );
+    // One gain per sensor cannot explain the out-of-round tread beside the flat: the
+    // shared-gain stage explains no survivor, and the per-point answer stands, said so
+    // (issue 56), instead of a refuted class.
+    assert!(
+        r.sizing.as_ref().is_some_and(|z| z.shared_gains_fallback),
+        "{}",
+        r.summary
+    );
+    assert!(
+        r.summary.contains("the per-point answer stands"),
+        "{}",
+        r.summary
+    );
 }
 
 /// A pass on the identify bank's calibration (bank mesh, errors per Eq. 1, seed `seed`) with

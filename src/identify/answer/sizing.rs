@@ -50,6 +50,10 @@ pub struct Sizing {
     /// measured: the flat is smaller than the population's.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub below_population: bool,
+    /// The shared-gain stage explained none of the survivors at every point read, so the
+    /// per-point answer stands (docs/model.md, "Shared gains").
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub shared_gains_fallback: bool,
 }
 
 impl Sizing {
@@ -76,6 +80,7 @@ impl Sizing {
             random_subsets: None,
             model_class_refuted: false,
             below_population: false,
+            shared_gains_fallback: false,
         }
     }
 
@@ -101,6 +106,7 @@ impl Sizing {
             ("random_subsets", self.random_subsets.is_some()),
             ("model_class_refuted", self.model_class_refuted),
             ("below_population", self.below_population),
+            ("shared_gains_fallback", self.shared_gains_fallback),
         ];
         if let Some((key, _)) = set.iter().find(|(_, on)| *on) {
             return Some(format!("`{key}` is set"));

@@ -149,6 +149,15 @@ pub(super) struct Member {
     pub(super) share: f32,
 }
 
+/// A round's local population as the landing check reads it: its members, their cells, their
+/// predictions at every point, and the survivors.
+type LastRound = (
+    Vec<Member>,
+    crate::identify::domain::cells::Cells,
+    Vec<Vec<f32>>,
+    Vec<u32>,
+);
+
 /// The simulator of the bank's own calibration, which [`refine`] needs.
 pub fn bank_simulator(identifier: &Identifier) -> Result<Simulator, IdentifyError> {
     let bank = identifier.bank().metadata();
@@ -250,12 +259,7 @@ pub fn refine(
         .bounds(identifier.bounds);
     let mut state = settings.seed ^ 0x5DEE_CE66_D1CE_4E5B;
     // The last round's population, for the landing check.
-    let mut last: Option<(
-        Vec<Member>,
-        crate::identify::domain::cells::Cells,
-        Vec<Vec<f32>>,
-        Vec<u32>,
-    )> = None;
+    let mut last: Option<LastRound> = None;
     for round in 0..settings.rounds {
         let budget = settings.simulations / settings.rounds
             + usize::from(round < settings.simulations % settings.rounds);
@@ -306,7 +310,7 @@ pub fn refine(
             kappa,
         });
         let mut alive = falsify(&points, res);
-        if all_points > method_points {
+        if all_points > method_points && !sizing.shared_gains_fallback {
             // One gain per sensor at every point read (docs/model.md, "Shared gains").
             let shared = cmp.shared_points(
                 &columns,
@@ -314,13 +318,17 @@ pub fn refine(
                 any.then_some(shares.as_slice()),
                 &rough_bounds,
             );
-            alive = keep(
+            let kept = keep(
                 &shared,
                 &alive,
                 GainBounds::of(&rough_bounds),
                 ModelForm::of(identifier.settings().shared_model_form),
                 |k, i| res.map_or(0.0, |r| r.kappa * r.cells.spread(shared[i].predictions, k)),
             );
+            // As the bank-only answer: none explained lets the per-point survivors stand.
+            if !kept.is_empty() {
+                alive = kept;
+            }
         }
         let kept: Vec<Member> = alive.iter().map(|&k| members[k as usize].clone()).collect();
         let ranges = ranges_of(&kept, pop, radius);

@@ -404,12 +404,6 @@ impl Calibration {
             100.0,
         )?;
         within(
-            "identification.detection_allowance_fraction",
-            id.detection_allowance_fraction,
-            0.0,
-            1.0,
-        )?;
-        within(
             "identification.urgent_dynamic_ratio",
             id.urgent_dynamic_ratio,
             1.0,
@@ -421,26 +415,26 @@ impl Calibration {
             1.0,
             100.0,
         )?;
-        within(
-            "identification.departure_model_form_fraction",
-            id.departure_model_form_fraction,
-            0.0,
-            1.0,
-        )?;
-        let d = id.discretisation_fraction;
-        within("identification.discretisation_fraction", d, 0.0, 1.0)?;
-        let r = id.discretisation_dynamic_ratio;
-        within("identification.discretisation_dynamic_ratio", r, 0.0, 100.0)?;
-        let [a, b, c] = id.shared_model_form;
-        within("identification.shared_model_form[0]", a, 0.0, 1.0)?;
-        within("identification.shared_model_form[1]", b, 0.0, 1.0)?;
-        within("identification.shared_model_form[2]", c, 0.0, 1000.0)?;
-        if id.refine_landings > 256 {
-            return Err(invalid(
-                "identification.refine_landings",
-                id.refine_landings,
-                "must be 0 to 256 simulations",
-            ));
+        let (f, dr) = (id.shared_model_form, id.discretisation_dynamic_ratio);
+        for (key, v, hi) in [
+            (
+                "detection_allowance_fraction",
+                id.detection_allowance_fraction,
+                1.0,
+            ),
+            (
+                "departure_model_form_fraction",
+                id.departure_model_form_fraction,
+                1.0,
+            ),
+            ("discretisation_fraction", id.discretisation_fraction, 1.0),
+            ("discretisation_dynamic_ratio", dr, 1e2),
+            ("shared_model_form[0]", f[0], 1.0),
+            ("shared_model_form[1]", f[1], 1.0),
+            ("shared_model_form[2]", f[2], 1e3),
+            ("refine_landings", id.refine_landings as f64, 256.0),
+        ] {
+            within(&format!("identification.{key}"), v, 0.0, hi)?;
         }
         for (i, u) in id.uncertainty.iter().enumerate() {
             finite(&format!("identification.uncertainty[{i}].min"), u.min)?;
@@ -597,10 +591,7 @@ mod tests {
     fn window_past_the_rail_end_is_rejected() {
         let mut c = Calibration::default();
         c.output.window_samples = 20_000;
-        assert!(c
-            .check()
-            .unwrap_err()
-            .to_string()
-            .contains("output.window_samples"));
+        let msg = c.check().unwrap_err().to_string();
+        assert!(msg.contains("output.window_samples"), "{msg}");
     }
 }

@@ -423,22 +423,16 @@ pub struct IdentificationParams {
     /// wheel load (flats that lose contact and land; the others keep the table's mesh term).
     #[serde(default = "default_discretisation_dynamic_ratio")]
     pub discretisation_dynamic_ratio: f64,
-    /// What a pass shares solved per candidate (issue 56; docs/model.md §8, "Shared gains"):
-    /// after the Šídák thresholds, an instance must be explained at every point read (the PIP
-    /// candidates and envelope windows) by one gain per sensor inside the table's relative
-    /// bounds, with hard per-point bounds. `false`: the per-point thresholds alone. Absent
-    /// from a calibration file: `true`.
+    /// One gain per sensor solved per instance at every point read (docs/model.md, "Shared
+    /// gains"); `false`: the per-point thresholds alone. Absent: `true`.
     #[serde(default = "default_shared_gains")]
     pub shared_gains: bool,
-    /// The model-form residual a pass leaves at a point after its shared gain,
-    /// `[fraction of |g|, fraction of |g − g_ff|, kN]` (measured on physics-varied passes
-    /// against the converged reference: `studies/src/bin/physics_gap.rs`). Absent: the
-    /// default.
+    /// The model form a pass leaves after its gain, `[fraction of |g|, of |g − g_ff|, kN]`
+    /// (`studies/src/bin/physics_gap.rs`). Absent: the default.
     #[serde(default = "default_shared_model_form")]
     pub shared_model_form: [f64; 3],
-    /// A refinement's simulations on the landings calibration that check the landing flats
-    /// at the L0 bounds without the landing allowance (docs/identification.md, "Landings
-    /// resolved"; 0: none, 0–256). Absent: 0 (each costs about 13 bank simulations).
+    /// A refinement's simulations on the landings calibration at the L0 bounds
+    /// (docs/identification.md, "Landings resolved"; 0–256). Absent: 0, none.
     #[serde(default)]
     pub refine_landings: usize,
     /// The wheels' roughness class (docs/detection.md, "Rough wheels"): `auto` (read from each

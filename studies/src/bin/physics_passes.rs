@@ -77,7 +77,7 @@ fn main() {
             } else {
                 WheelPosition::Trailing
             };
-            drawn[k].clone().on_wheel(wheel)
+            drawn[k].on_wheel(wheel)
         });
         let syn = synthesize_on(
             &cal,

@@ -266,6 +266,7 @@ pub(super) fn identification() -> Identification {
             }),
             model_class_refuted: false,
             below_population: false,
+            shared_gains_fallback: false,
         }),
         detection: Some(detected),
         roughness: None,
