@@ -164,20 +164,6 @@ pub(crate) fn gains_of(
     out
 }
 
-/// Whether some gain per sensor explains instance `k` at every point.
-fn explained(
-    points: &[SharedPoint],
-    k: usize,
-    gain: GainBounds,
-    form: ModelForm,
-    sensors: usize,
-    extra: impl Fn(usize, usize) -> f64,
-) -> bool {
-    gains_of(points, k, gain, form, sensors, extra)
-        .iter()
-        .all(|g| !g.is_empty())
-}
-
 /// The instances of `alive` that some shared gain per sensor explains at every point.
 /// `spread(k, i)` is the bank's resolution at instance `k` and point `i` (κ × the neighbour
 /// spread; kN), only asked for where the instance fails without it.
@@ -195,8 +181,12 @@ pub(crate) fn keep(
         .copied()
         .filter(|&k| {
             let k = k as usize;
-            explained(points, k, gain, form, sensors, |_, _| 0.0)
-                || explained(points, k, gain, form, sensors, &spread)
+            let explained = |extra: &dyn Fn(usize, usize) -> f64| {
+                gains_of(points, k, gain, form, sensors, extra)
+                    .iter()
+                    .all(|g| !g.is_empty())
+            };
+            explained(&|_, _| 0.0) || explained(&spread)
         })
         .collect()
 }

@@ -39,20 +39,6 @@ pub(super) struct Round<'a> {
     pub(super) alive: Vec<u32>,
 }
 
-/// The landings simulator of `identifier`'s bank.
-pub(super) fn landings_simulator(identifier: &Identifier) -> Result<Simulator, IdentifyError> {
-    let bank = identifier.bank().metadata();
-    bank.calibration
-        .with_converged_landings()
-        .check()
-        .map_err(|e| e.to_string())
-        .and_then(|c| Simulator::new(&c).map_err(|e| e.to_string()))
-        .map_err(|reason| IdentifyError::StoredCalibration {
-            bank_id: bank.bank_id.clone(),
-            reason,
-        })
-}
-
 /// Checks `round`'s landing survivors from each L0 bound inwards (see the module docs) with at
 /// most `budget` simulations; returns the survivors left and what was done.
 #[allow(clippy::too_many_arguments)]

@@ -160,9 +160,16 @@ type LastRound = (
 
 /// The simulator of the bank's own calibration, which [`refine`] needs.
 pub fn bank_simulator(identifier: &Identifier) -> Result<Simulator, IdentifyError> {
+    simulator_of(identifier, |c| c.clone())
+}
+
+/// The simulator of a calibration made from the bank's by `make`.
+fn simulator_of(
+    identifier: &Identifier,
+    make: impl Fn(&crate::model::Calibration) -> crate::model::Calibration,
+) -> Result<Simulator, IdentifyError> {
     let bank = identifier.bank().metadata();
-    bank.calibration
-        .clone()
+    make(&bank.calibration)
         .check()
         .map_err(|e| e.to_string())
         .and_then(|c| Simulator::new(&c).map_err(|e| e.to_string()))
@@ -354,7 +361,7 @@ pub fn refine(
         last.filter(|_| !out.stopped_early),
         landings > 0 && shares.is_some(),
     ) {
-        let lsim = landing::landings_simulator(identifier)?;
+        let lsim = simulator_of(identifier, |c| c.with_converged_landings())?;
         let round = landing::Round {
             members: &members,
             cells: &cells,
