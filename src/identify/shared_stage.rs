@@ -6,9 +6,7 @@
 
 use crate::identify::answer::identification::Identification;
 use crate::identify::answer::sizing::Sizing;
-use crate::identify::domain::falsify;
-use crate::identify::domain::falsify::Resolution;
-use crate::identify::domain::shared_gain::{self, GainBounds, ModelForm, SharedPoint};
+use crate::identify::domain::shared_gain::{keep_resolved, measurement_bound_kn, SharedPoint};
 use crate::identify::domain::table_bounds::TableBounds;
 use crate::identify::error::IdentifyError;
 use crate::identify::identifier::Identifier;
@@ -51,8 +49,7 @@ impl Identifier {
         if alive.is_empty() {
             return alive;
         }
-        let b = input.bounds;
-        let bound = |ff: f64| b.absolute_kn + b.bound_kn + b.good_wheel_fraction * ff.abs();
+        let bound = |ff: f64| measurement_bound_kn(&input.bounds, ff);
         let mut points: Vec<SharedPoint> = (0..input.measured.len())
             .map(|i| SharedPoint {
                 sensor: input.sensors[i],
@@ -79,12 +76,8 @@ impl Identifier {
                     .map(|a| (a.shares, a.windows[j / 2].as_slice())),
             }
         }));
-        let gain = GainBounds::of(&b);
-        let form = ModelForm::of(self.settings.shared_model_form);
-        let res: Option<Resolution> = self.resolution();
-        shared_gain::keep(&points, &alive, gain, form, |k, i| {
-            res.map_or(0.0, |r| r.kappa * r.cells.spread(points[i].predictions, k))
-        })
+        let form = self.settings.shared_model_form;
+        keep_resolved(&points, &alive, &input.bounds, form, self.resolution())
     }
 
     /// Whether the shared stage keeps instance `k` of the bank against identification `id`
@@ -150,14 +143,8 @@ impl Identifier {
             .filter(|_| cmp == crate::identify::input::compare::Comparison::Samples);
         let (cand_steps, env_steps) = match shares {
             Some(_) => {
-                let mut steps = Vec::with_capacity(at.len());
-                for (i, &(a, j)) in at.iter().enumerate() {
-                    let last = axes[a].samples - 1;
-                    let side = read(&[(a, j.saturating_sub(1)), (a, (j + 1).min(last))])?;
-                    steps.push(falsify::steps(&[&side[0], predictions[i], &side[1]]));
-                }
-                let env: Vec<Vec<f32>> = windows.iter().map(|w| falsify::steps(w)).collect();
-                (steps, env)
+                let env: Vec<&[f32]> = env_columns.iter().map(Vec::as_slice).collect();
+                self.allowance_steps(&at, &predictions, &env, hw)?
             }
             None => (Vec::new(), Vec::new()),
         };

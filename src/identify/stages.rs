@@ -308,24 +308,25 @@ impl Identifier {
         let shares = self
             .discretisation()
             .filter(|_| z.comparison == crate::identify::input::compare::Comparison::Samples);
-        // The shared stage reads every candidate's steps; the EIP's are among them.
+        // The steps at every candidate when the shared stage reads them all (the EIP's among
+        // them, at their candidate index), else at the EIP alone (at their order).
         let shared = s.shared_gains;
-        let every: Vec<usize> = (0..measured.len()).collect();
-        let (cand_steps, env_steps) = match shares {
-            Some(_) => self.allowance_steps(
-                z.used,
-                series,
-                z.cands,
-                if shared { &every } else { order },
-                &read.predictions,
-                &read.env_columns,
-                hw,
-            )?,
-            None => (Vec::new(), Vec::new()),
+        let stepped: Vec<usize> = if shared {
+            (0..measured.len()).collect()
+        } else {
+            order.clone()
         };
-        let eip_steps: Vec<Vec<f32>> = match (shares, shared) {
-            (Some(_), true) => order.iter().map(|&i| cand_steps[i].clone()).collect(),
-            _ => cand_steps.clone(),
+        let (cand_steps, env_steps) = match shares {
+            Some(_) => {
+                let cand = |&i: &usize| &z.cands[i];
+                let at: Vec<(usize, usize)> = stepped
+                    .iter()
+                    .map(|i| (z.used[cand(i).series].1, cand(i).sample))
+                    .collect();
+                let g: Vec<&[f32]> = stepped.iter().map(|&i| read.predictions[i]).collect();
+                self.allowance_steps(&at, &g, &read.env_columns, hw)?
+            }
+            None => (Vec::new(), Vec::new()),
         };
         let point = |i: usize| Point {
             predictions: read.predictions[i],
@@ -339,7 +340,11 @@ impl Identifier {
             .iter()
             .enumerate()
             .map(|(j, &i)| Point {
-                discretisation: falsify::Discretisation::of(shares, &eip_steps, j),
+                discretisation: falsify::Discretisation::of(
+                    shares,
+                    &cand_steps,
+                    if shared { i } else { j },
+                ),
                 ..point(i)
             })
             .collect();

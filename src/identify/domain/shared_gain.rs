@@ -19,6 +19,7 @@
 //! the instance survives when, for every sensor, the intersection is not empty — O(points) per
 //! instance.
 
+use crate::identify::domain::falsify::Resolution;
 use crate::identify::domain::table_bounds::TableBounds;
 
 /// The bounds of a sensor's shared gain `G_s`, from the table's relative sources.
@@ -189,6 +190,31 @@ pub(crate) fn keep(
             explained(&|_, _| 0.0) || explained(&spread)
         })
         .collect()
+}
+
+/// [`keep`] with the gain bounds of `bounds`, the settings' model form `form` and the bank's
+/// resolution `res` (κ × the instance's neighbour spread at the point; none without it): the
+/// stage as identification, refinement and audit judge with it.
+pub(crate) fn keep_resolved(
+    points: &[SharedPoint],
+    alive: &[u32],
+    bounds: &TableBounds,
+    form: [f64; 3],
+    res: Option<Resolution>,
+) -> Vec<u32> {
+    keep(
+        points,
+        alive,
+        GainBounds::of(bounds),
+        ModelForm::of(form),
+        |k, i| res.map_or(0.0, |r| r.kappa * r.cells.spread(points[i].predictions, k)),
+    )
+}
+
+/// `E_i` at a point whose flat-free prediction is `flat_free_kn`: the table's absolute
+/// sources and the bounded ones (a rough tread's or rail's) at their bounds (kN).
+pub(crate) fn measurement_bound_kn(bounds: &TableBounds, flat_free_kn: f64) -> f64 {
+    bounds.absolute_kn + bounds.bound_kn + bounds.good_wheel_fraction * flat_free_kn.abs()
 }
 
 #[cfg(test)]

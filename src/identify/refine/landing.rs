@@ -12,7 +12,7 @@ use super::points::{simulate_at, Comparison};
 use super::Member;
 use crate::identify::domain::cells::Cells;
 use crate::identify::domain::falsify::{falsify, Resolution};
-use crate::identify::domain::shared_gain::{keep, GainBounds, ModelForm};
+use crate::identify::domain::shared_gain::keep_resolved;
 use crate::identify::domain::table_bounds::TableBounds;
 use crate::identify::error::IdentifyError;
 use crate::identify::identifier::Identifier;
@@ -32,10 +32,10 @@ pub(super) struct Checked {
 
 /// The last round's local population: its members, their cells and predictions at every
 /// point, and which of them survive.
-pub(super) struct Round<'a> {
-    pub(super) members: &'a [Member],
-    pub(super) cells: &'a Cells,
-    pub(super) columns: &'a [Vec<f32>],
+pub(super) struct Round {
+    pub(super) members: Vec<Member>,
+    pub(super) cells: Cells,
+    pub(super) columns: Vec<Vec<f32>>,
     pub(super) alive: Vec<u32>,
 }
 
@@ -46,18 +46,20 @@ pub(super) fn check(
     identifier: &Identifier,
     sim: &Simulator,
     cmp: &Comparison,
-    round: Round<'_>,
+    round: &Round,
     kappa: f64,
     bounds: &TableBounds,
     budget: usize,
 ) -> Result<(Vec<u32>, Checked), IdentifyError> {
     let mut done = Checked::default();
     let mut alive = round.alive.clone();
-    let m = round.members;
+    let m = &round.members;
     let res = (kappa > 0.0).then_some(Resolution {
-        cells: round.cells,
+        cells: &round.cells,
         kappa,
     });
+    // The population's predictions, each judged flat's put in its place while it is judged.
+    let mut columns = round.columns.clone();
     for (end, upper) in [(0, false), (1, true)] {
         loop {
             // From this bound inwards: the flats whose cells reach furthest in d.
@@ -98,7 +100,7 @@ pub(super) fn check(
             done.simulated += batch.len();
             let mut kept_one = false;
             for (&k, (g, _, _)) in batch.iter().zip(&values) {
-                if judge(identifier, cmp, &round, k as usize, g, res, bounds) {
+                if judge(identifier, cmp, &mut columns, k as usize, g, res, bounds) {
                     kept_one = true;
                 } else {
                     alive.retain(|&a| a != k);
@@ -118,38 +120,31 @@ pub(super) fn check(
 }
 
 /// Whether member `k`, predicting `g` at every point of `cmp` (landings calibration), passes
-/// every point without the landing allowance (its cell's resolution kept).
+/// every point without the landing allowance (its cell's resolution kept). `columns` are the
+/// population's predictions at every point; `k`'s are swapped for `g` while it is judged.
 fn judge(
     identifier: &Identifier,
     cmp: &Comparison,
-    round: &Round<'_>,
+    columns: &mut [Vec<f32>],
     k: usize,
     g: &[f32],
     res: Option<Resolution<'_>>,
     bounds: &TableBounds,
 ) -> bool {
-    let columns: Vec<Vec<f32>> = round
-        .columns
-        .iter()
-        .zip(g)
-        .map(|(c, &v)| {
-            let mut c = c.clone();
-            c[k] = v;
-            c
-        })
-        .collect();
-    let points = cmp.points(&columns, 0..cmp.method, &[], None);
-    let kept = falsify(&points, res).contains(&(k as u32));
-    if !kept || cmp.at.len() == cmp.method {
-        return kept;
+    let bank_mesh: Vec<f32> = columns.iter().map(|c| c[k]).collect();
+    for (c, &v) in columns.iter_mut().zip(g) {
+        c[k] = v;
     }
-    let shared = cmp.shared_points(&columns, &[], None, bounds);
-    !keep(
-        &shared,
-        &[k as u32],
-        GainBounds::of(bounds),
-        ModelForm::of(identifier.settings().shared_model_form),
-        |j, i| res.map_or(0.0, |r| r.kappa * r.cells.spread(shared[i].predictions, j)),
-    )
-    .is_empty()
+    let kept = {
+        let points = cmp.points(columns, 0..cmp.method, &[], None);
+        falsify(&points, res).contains(&(k as u32))
+    } && (cmp.at.len() == cmp.method || {
+        let shared = cmp.shared_points(columns, &[], None, bounds);
+        let form = identifier.settings().shared_model_form;
+        !keep_resolved(&shared, &[k as u32], bounds, form, res).is_empty()
+    });
+    for (c, v) in columns.iter_mut().zip(bank_mesh) {
+        c[k] = v;
+    }
+    kept
 }

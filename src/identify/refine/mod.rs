@@ -40,7 +40,7 @@ mod points;
 use super::answer::identification::Identification;
 pub use super::answer::refinement::{RefineRound, Refinement};
 use super::domain::falsify::{falsify, largest_step, Resolution};
-use super::domain::shared_gain::{keep, GainBounds, ModelForm};
+use super::domain::shared_gain::keep_resolved;
 use crate::identify::error::IdentifyError;
 use crate::identify::identifier::Identifier;
 use crate::model::{Simulator, WheelPosition};
@@ -148,15 +148,6 @@ pub(super) struct Member {
     /// Its discretisation share ([`Identifier::discretisation_share`]).
     pub(super) share: f32,
 }
-
-/// A round's local population as the landing check reads it: its members, their cells, their
-/// predictions at every point, and the survivors.
-type LastRound = (
-    Vec<Member>,
-    crate::identify::domain::cells::Cells,
-    Vec<Vec<f32>>,
-    Vec<u32>,
-);
 
 /// The simulator of the bank's own calibration, which [`refine`] needs.
 pub fn bank_simulator(identifier: &Identifier) -> Result<Simulator, IdentifyError> {
@@ -266,7 +257,7 @@ pub fn refine(
         .bounds(identifier.bounds);
     let mut state = settings.seed ^ 0x5DEE_CE66_D1CE_4E5B;
     // The last round's population, for the landing check.
-    let mut last: Option<LastRound> = None;
+    let mut last: Option<landing::Round> = None;
     for round in 0..settings.rounds {
         let budget = settings.simulations / settings.rounds
             + usize::from(round < settings.simulations % settings.rounds);
@@ -325,13 +316,8 @@ pub fn refine(
                 any.then_some(shares.as_slice()),
                 &rough_bounds,
             );
-            let kept = keep(
-                &shared,
-                &alive,
-                GainBounds::of(&rough_bounds),
-                ModelForm::of(identifier.settings().shared_model_form),
-                |k, i| res.map_or(0.0, |r| r.kappa * r.cells.spread(shared[i].predictions, k)),
-            );
+            let form = identifier.settings().shared_model_form;
+            let kept = keep_resolved(&shared, &alive, &rough_bounds, form, res);
             // As the bank-only answer: none explained lets the per-point survivors stand.
             if !kept.is_empty() {
                 alive = kept;
@@ -351,28 +337,27 @@ pub fn refine(
         out.ranges = ranges;
         out.survivors = kept.len();
         seeds = kept;
-        last = Some((members, cells, columns, alive));
+        last = Some(landing::Round {
+            members,
+            cells,
+            columns,
+            alive,
+        });
     }
     // Landings resolved by simulation where they decide the bounds (landing.rs).
     let landings = settings
         .landings
         .unwrap_or(identifier.settings().refine_landings);
-    if let (Some((members, cells, columns, alive)), true) = (
+    if let (Some(round), true) = (
         last.filter(|_| !out.stopped_early),
         landings > 0 && shares.is_some(),
     ) {
         let lsim = simulator_of(identifier, |c| c.with_converged_landings())?;
-        let round = landing::Round {
-            members: &members,
-            cells: &cells,
-            columns: &columns,
-            alive,
-        };
         let (alive, done) = landing::check(
             identifier,
             &lsim,
             &cmp,
-            round,
+            &round,
             kappa,
             &rough_bounds,
             landings,
@@ -384,7 +369,10 @@ pub fn refine(
         // A check that would leave nothing lets the answer before it stand (a refuted class
         // is diagnose's to name, not the landing check's).
         if !alive.is_empty() {
-            seeds = alive.iter().map(|&k| members[k as usize].clone()).collect();
+            seeds = alive
+                .iter()
+                .map(|&k| round.members[k as usize].clone())
+                .collect();
             out.ranges = ranges_of(&seeds, pop, radius);
             out.survivors = seeds.len();
         }

@@ -133,7 +133,6 @@ impl Comparison {
         shares: Option<&'a [f32]>,
         bounds: &crate::identify::domain::table_bounds::TableBounds,
     ) -> Vec<crate::identify::domain::shared_gain::SharedPoint<'a>> {
-        let b = *bounds;
         (self.envelope_from..self.at.len())
             .map(|p| {
                 let ff = self.flat_free[p];
@@ -142,7 +141,9 @@ impl Comparison {
                     predictions: &columns[p],
                     measured_kn: self.measured[p],
                     flat_free_kn: ff,
-                    bound_kn: b.absolute_kn + b.bound_kn + b.good_wheel_fraction * ff.abs(),
+                    bound_kn: crate::identify::domain::shared_gain::measurement_bound_kn(
+                        bounds, ff,
+                    ),
                     allowance: shares.map(|sh| (sh, steps[p].as_slice())),
                 }
             })
