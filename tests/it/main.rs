@@ -17,6 +17,7 @@ mod diagnose;
 mod effects;
 mod family;
 mod fuzz;
+mod growing;
 mod history;
 mod identify;
 mod kill;
