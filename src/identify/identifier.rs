@@ -9,6 +9,7 @@ use crate::bank::departures::{self, Departures};
 use crate::bank::out_of_round::OutOfRoundBasis;
 use crate::bank::roughness::RoughnessTable;
 use crate::bank::{Bank, Parameters};
+use crate::identify::detect::load_shapes::LoadShapes;
 use crate::identify::domain::cells::Cells;
 use crate::identify::domain::discretisation::{self, share, static_load_kn};
 use crate::identify::domain::falsify::Resolution;
@@ -47,6 +48,9 @@ pub struct Identifier {
     /// The bank's out-of-round basis, simulated when a pass first needs it ([`out_of_round`]).
     pub(super) out_of_round:
         Mutex<Option<std::sync::Arc<crate::bank::out_of_round::OutOfRoundBasis>>>,
+    /// The flat-free predictions of the family's members at this bank's speed, by load
+    /// ([`crate::identify::detect::load_shapes`]); `None` on a single bank or one load.
+    pub(super) load_shapes: Option<Arc<LoadShapes>>,
 }
 
 impl Identifier {
@@ -104,7 +108,14 @@ impl Identifier {
             roughness: Mutex::new(None),
             noise_hf: std::sync::OnceLock::new(),
             out_of_round: Mutex::new(None),
+            load_shapes: None,
         }
+    }
+
+    /// Reads and puts every pass on this bank's load with the members' shapes `shapes` (a
+    /// family over loads; [`crate::identify::detect::load_shapes`]).
+    pub(crate) fn set_load_shapes(&mut self, shapes: Option<Arc<LoadShapes>>) {
+        self.load_shapes = shapes;
     }
 
     /// The bank.

@@ -101,7 +101,10 @@ fn a_flat_growing_from_20_to_45_mm_over_ten_passes_is_seen_growing() {
     // Each pass's range holds its own flat (φ = 0.95 a pass; these seeds miss none).
     let ranges: Vec<[f64; 2]> = passes.iter().map(|p| range(&p["l0_mm"])).collect();
     for ((l0, _), r) in flats.iter().zip(&ranges) {
-        assert!(r[0] <= *l0 && *l0 <= r[1], "L0 {l0:.1} outside {r:?}\n{text}");
+        assert!(
+            r[0] <= *l0 && *l0 <= r[1],
+            "L0 {l0:.1} outside {r:?}\n{text}"
+        );
     }
     // The ranges rise with the flat: their lower ends in order (τ ≥ 0.6, a trend, not noise),
     // and the newest rules out the flat the wheel first had.
@@ -129,7 +132,10 @@ fn a_flat_growing_from_20_to_45_mm_over_ten_passes_is_seen_growing() {
         token: None,
     })
     .unwrap();
-    let w = json(&app, &format!("/api/wheel?id={}&last=10", wheel.replace('/', "%2F")));
+    let w = json(
+        &app,
+        &format!("/api/wheel?id={}&last=10", wheel.replace('/', "%2F")),
+    );
     assert_eq!(w["passes"], history["passes"]);
     assert_eq!(w["joint"]["l0_mm"], history["joint"]["l0_mm"]);
     let (status, _, svg) = get(

@@ -3,11 +3,13 @@
 //! bogies run at several speeds).
 
 use crate::bank::family::Family;
+use crate::identify::detect::load_shapes::LoadShapes;
 use crate::identify::error::IdentifyError;
 use crate::identify::identifier::Identifier;
 use crate::identify::input::measurement::Measurement;
 use crate::model::calibration::IdentificationParams;
 use std::path::Path;
+use std::sync::Arc;
 
 /// A family (or a single bank) and the identifiers opened on its members so far.
 pub struct Members {
@@ -15,6 +17,9 @@ pub struct Members {
     /// Settings for every member (`None`: each member's stored ones).
     settings: Option<IdentificationParams>,
     open: Vec<Option<Identifier>>,
+    /// The members' shapes by load, per speed (keyed by the first member at that speed),
+    /// read when a pass at that speed first needs them.
+    shapes: std::collections::HashMap<usize, Option<Arc<LoadShapes>>>,
 }
 
 impl Members {
@@ -32,6 +37,7 @@ impl Members {
             family,
             settings,
             open,
+            shapes: std::collections::HashMap::new(),
         })
     }
 
@@ -85,6 +91,11 @@ impl Members {
             })
             .expect("a speed has members");
         self.open_member(own)?;
+        let shapes = self.shapes_at(&at_speed)?;
+        self.open[own]
+            .as_mut()
+            .expect("opened above")
+            .set_load_shapes(shapes.clone());
         // Nearest however far (diagnosis): the record is read at the member's speed, which
         // the diagnosis then questions.
         let at_member;
@@ -118,6 +129,10 @@ impl Members {
                 car_body_mass_kg: load.car_body_mass_kg,
             })?;
         self.open_member(k)?;
+        self.open[k]
+            .as_mut()
+            .expect("opened above")
+            .set_load_shapes(shapes);
         Ok(k)
     }
 
@@ -154,6 +169,33 @@ impl Members {
         self.open[k]
             .take()
             .expect("a member is opened by member_for before it is used")
+    }
+
+    /// The flat-free predictions of the members `at_speed` by load, on a family over loads
+    /// with two or more there ([`LoadShapes`]): each member's bank opened for its metadata
+    /// (the members not yet identified with stay closed after).
+    fn shapes_at(&mut self, at_speed: &[usize]) -> Result<Option<Arc<LoadShapes>>, IdentifyError> {
+        if self.family.loads.is_none() || at_speed.len() < 2 {
+            return Ok(None);
+        }
+        if let Some(s) = self.shapes.get(&at_speed[0]) {
+            return Ok(s.clone());
+        }
+        let mut members = Vec::with_capacity(at_speed.len());
+        for &j in at_speed {
+            let flat_free = match &self.open[j] {
+                Some(id) => id.bank().metadata().flat_free_kn.clone(),
+                None => self.family.members[j]
+                    .open()?
+                    .metadata()
+                    .flat_free_kn
+                    .clone(),
+            };
+            members.push((self.family.members[j].wheel_load_kn, flat_free));
+        }
+        let s = LoadShapes::new(members).map(Arc::new);
+        self.shapes.insert(at_speed[0], s.clone());
+        Ok(s)
     }
 
     /// Opens member `k` if it is not open yet (`k` as [`Family::member_for`] gives it).

@@ -24,7 +24,16 @@ impl Identifier {
         c: Comparison,
     ) -> Detection {
         let templates: Vec<&[f32]> = axes.iter().map(|&a| self.flat_free(a, c)).collect();
-        detect::detect(series, &templates, bounds)
+        // On a family over loads, each sensor's allowance holds what the prediction at the
+        // pass's load may miss between members (0 on a linear track).
+        let extra: Vec<f64> = match &self.load_shapes {
+            Some(s) => axes
+                .iter()
+                .map(|&a| s.interpolation_error_kn()[a])
+                .collect(),
+            None => Vec::new(),
+        };
+        detect::detect_with(series, &templates, bounds, &extra)
     }
 
     /// How detection compares a pass: through the average, or sample by sample where the

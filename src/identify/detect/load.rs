@@ -14,8 +14,10 @@
 //! level alone is ±15 % (95 %), two sensors' ±11 %, five sensors' ±7 %: the record cannot tell
 //! the load better than the model's level is known, and the interval says so.
 
+use super::load_shapes::LoadShapes;
 use crate::identify::detect::Detection;
 use crate::identify::domain::uncertainty::draw_sources;
+use crate::identify::input::measurement::MeasuredSeries;
 use crate::model::calibration::{
     IdentificationParams, UncertaintyGroup, UncertaintyKind, VehicleParams,
 };
@@ -43,6 +45,10 @@ pub struct LoadEstimate {
     pub mean_level: f64,
     /// Sensors it was read from.
     pub sensors: usize,
+    /// On a family over loads, the loads of the two members the record was read between
+    /// with their own shapes ([`super::load_shapes`]; kN); `None`: read on one bank.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub between_members_kn: Option<[f64; 2]>,
 }
 
 impl LoadEstimate {
@@ -64,8 +70,12 @@ impl LoadEstimate {
 
     /// One line for the text verdict.
     pub fn words(&self) -> String {
+        let shapes = match self.between_members_kn {
+            Some([a, b]) => format!("; read with the members' shapes between {a:.1} and {b:.1} kN"),
+            None => String::new(),
+        };
         format!(
-            "load: {:.1} kN a wheel ({:.1}–{:.1} kN, {:.0} %; car body ≈ {:.0} kg), the bank's {:.1} kN ({:+.0} %)",
+            "load: {:.1} kN a wheel ({:.1}–{:.1} kN, {:.0} %; car body ≈ {:.0} kg{shapes}), the bank's {:.1} kN ({:+.0} %)",
             self.wheel_load_kn,
             self.interval_kn[0],
             self.interval_kn[1],
@@ -157,7 +167,80 @@ pub(crate) fn estimate(
         bank_wheel_load_kn,
         mean_level,
         sensors: levels.len(),
+        between_members_kn: None,
     })
+}
+
+/// The level of `y` over `g` by least squares over the loaded samples (`g` at least a quarter
+/// of its peak and 2 kN), as the detection step fits it ([`crate::identify::detect::test_sensor`]);
+/// `None` without loaded samples.
+fn level_over(y: &[f64], g: &[f64]) -> Option<f64> {
+    let peak = g.iter().fold(0.0f64, |m, &x| m.max(x.abs()));
+    let floor = (0.25 * peak).max(2.0);
+    let (yg, gg) = y
+        .iter()
+        .zip(g)
+        .filter(|(_, &g)| g.abs() >= floor)
+        .fold((0.0, 0.0), |(a, b), (&y, &g)| (a + y * g, b + g * g));
+    (gg > 0.0 && (yg / gg).is_finite()).then_some(yg / gg)
+}
+
+/// The load `L` at which the record's mean level over the members' prediction at `L` is the
+/// table's mean level factor `mean` — the linear read's own condition, with the prediction at
+/// the load itself instead of the bank's scaled ([`super::load_shapes`]); bracketed from the
+/// linear read `start_kn` outwards in 2 % steps, then bisected to 0.01 %. `None` when no
+/// sensor has loaded samples or no root lies within a factor of two of `start_kn`.
+fn read_with_shapes(
+    shapes: &LoadShapes,
+    axes: &[usize],
+    series: &[&[f64]],
+    mean: f64,
+    start_kn: f64,
+) -> Option<f64> {
+    let excess = |l: f64| -> Option<f64> {
+        let levels: Vec<f64> = axes
+            .iter()
+            .zip(series)
+            .filter_map(|(&a, y)| level_over(y, &shapes.at(a, l)))
+            .filter(|a| *a > 0.0)
+            .collect();
+        (!levels.is_empty()).then(|| levels.iter().sum::<f64>() / levels.len() as f64 - mean)
+    };
+    let f0 = excess(start_kn)?;
+    if f0 == 0.0 {
+        return Some(start_kn);
+    }
+    // The level falls as the load rises: a positive excess means a heavier load.
+    let dir = if f0 > 0.0 { 1.02 } else { 1.0 / 1.02 };
+    let (mut a, mut fa) = (start_kn, f0);
+    let mut b = start_kn;
+    loop {
+        b *= dir;
+        if !(0.5 * start_kn..=2.0 * start_kn).contains(&b) {
+            return None;
+        }
+        let fb = excess(b)?;
+        if fb == 0.0 {
+            return Some(b);
+        }
+        if fb.signum() != fa.signum() {
+            break;
+        }
+        (a, fa) = (b, fb);
+    }
+    for _ in 0..40 {
+        let m = 0.5 * (a + b);
+        let fm = excess(m)?;
+        if fm.signum() == fa.signum() {
+            (a, fa) = (m, fm);
+        } else {
+            b = m;
+        }
+        if (b - a).abs() < 1e-4 * m {
+            break;
+        }
+    }
+    Some(0.5 * (a + b))
 }
 
 impl crate::identify::identifier::Identifier {
@@ -172,12 +255,13 @@ impl crate::identify::identifier::Identifier {
         let prepared = self.prepare(m, sensors)?;
         let axes: Vec<usize> = prepared.used.iter().map(|&(_, bi)| bi).collect();
         // The gains alone decide the load: the roughness bound does not change them.
-        Ok(self.load_of(&self.detect(
+        let d = self.detect(
             &axes,
             &prepared.series,
             self.bounds,
             crate::identify::input::compare::Comparison::Samples,
-        )))
+        );
+        Ok(self.load_of(&axes, &prepared.series, &d))
     }
 
     /// Puts a pass's series (on the bank axes `axes`) on the bank's load. A pass heavier than
@@ -196,6 +280,27 @@ impl crate::identify::identifier::Identifier {
         load: &LoadEstimate,
     ) {
         let meta = self.bank.metadata();
+        if let (Some(shapes), Some(_)) = (&self.load_shapes, load.between_members_kn) {
+            // The prediction at the pass's own load, interpolated between the members, and
+            // each sensor's level over it: the static part moved from it to the bank's (a
+            // heavier pass's impacts scaled down as below, its static part then the bank's).
+            let r = load.bank_wheel_load_kn / load.wheel_load_kn;
+            let mean = mean_level_factor(&self.settings);
+            for (s, &axis) in series.iter_mut().zip(axes) {
+                let at_load = shapes.at(axis, load.wheel_load_kn);
+                let level = level_over(&s.values_kn, &at_load).unwrap_or(mean);
+                let bank = &meta.flat_free_kn[axis];
+                for ((y, &gl), &gk) in s.values_kn.iter_mut().zip(&at_load).zip(bank) {
+                    let gk = f64::from(gk);
+                    *y = if r < 1.0 {
+                        r * *y + level * (gk - r * gl)
+                    } else {
+                        *y - level * (gl - gk)
+                    };
+                }
+            }
+            return;
+        }
         match Adjustment::of(load) {
             Adjustment::Scale(r) => {
                 for s in series.iter_mut() {
@@ -212,9 +317,76 @@ impl crate::identify::identifier::Identifier {
         }
     }
 
+    /// On a family over loads, when the good wheel at the read load departs from the record
+    /// somewhere ([`crate::identify::detect`]), the load inside its interval whose good wheel
+    /// departs least (the largest excess over the sensors, `bounds` and comparison `c` as
+    /// detection judges): a hanging sleeper's pad changes shape with the load faster than the
+    /// level read pins it. Steps of 0.5 % over the interval; the read load kept when it is
+    /// quiet, when no load in the interval makes the whole pass quiet, or on one bank. The search moves one smooth prediction
+    /// the sensors share, as their gains do; a strike is sharp and stays.
+    pub(in crate::identify) fn load_by_shape(
+        &self,
+        axes: &[usize],
+        recorded: &[MeasuredSeries],
+        load: LoadEstimate,
+        bounds: crate::identify::domain::table_bounds::TableBounds,
+        c: crate::identify::input::compare::Comparison,
+    ) -> LoadEstimate {
+        let (Some(shapes), Some(_)) = (&self.load_shapes, load.between_members_kn) else {
+            return load;
+        };
+        let worst = |l: &LoadEstimate| -> f64 {
+            let mut at = recorded.to_vec();
+            self.at_bank_load(axes, &mut at, l);
+            let d = self.detect(axes, &c.series(&at), bounds, c);
+            d.worst().map_or(f64::NEG_INFINITY, |w| w.excess_kn)
+        };
+        let read = worst(&load);
+        if read <= 0.0 {
+            return load;
+        }
+        let mut best = (read, load.wheel_load_kn);
+        let [lo, hi] = load.interval_kn;
+        let steps = ((hi / lo).ln() / 1.005f64.ln()).ceil().clamp(1.0, 200.0) as usize;
+        for k in 0..=steps {
+            let l = lo * (hi / lo).powf(k as f64 / steps as f64);
+            let e = worst(&self.load_at(&load, shapes, l));
+            if e < best.0 {
+                best = (e, l);
+            }
+        }
+        // Only a load at which the whole pass is a good wheel is taken; else (a flat) the
+        // load stays as read, so that the search never moves a flat's load to hide its strike.
+        match best.0 <= 0.0 {
+            true => self.load_at(&load, shapes, best.1),
+            false => load,
+        }
+    }
+
+    /// `load` moved to `l` kN (its interval, level and sensors kept; the members around `l`).
+    fn load_at(&self, load: &LoadEstimate, shapes: &LoadShapes, l: f64) -> LoadEstimate {
+        let v = &self.bank.metadata().calibration.vehicle;
+        let loads = shapes.loads_kn();
+        let hi = loads.partition_point(|&x| x < l).clamp(1, loads.len() - 1);
+        LoadEstimate {
+            wheel_load_kn: l,
+            car_body_mass_kg: 2.0 * (l * 1e3 / v.gravity_m_per_s2 - v.wheel_mass_kg)
+                - v.bogie_mass_kg,
+            between_members_kn: Some([loads[hi - 1], loads[hi]]),
+            ..load.clone()
+        }
+    }
+
     /// The load of a pass from its detection step on this bank ([`estimate`]); the level
     /// factor's interval is drawn once per number of sensors and kept.
-    pub(in crate::identify) fn load_of(&self, detection: &Detection) -> Option<LoadEstimate> {
+    /// On a family over loads the load is then read again with the members' own shapes
+    /// ([`read_with_shapes`]) from the series on the bank axes `axes`, as recorded.
+    pub(in crate::identify) fn load_of(
+        &self,
+        axes: &[usize],
+        series: &[MeasuredSeries],
+        detection: &Detection,
+    ) -> Option<LoadEstimate> {
         let cal = &self.bank.metadata().calibration;
         let n = detection.sensors.len();
         let factor = {
@@ -223,12 +395,24 @@ impl crate::identify::identifier::Identifier {
                 .entry(n)
                 .or_insert_with(|| level_factor(&self.settings, n))
         };
-        estimate(
+        let linear = estimate(
             detection,
             cal.vehicle.static_wheel_load_n() / 1e3,
             &cal.vehicle,
             factor,
-        )
+        )?;
+        let Some(shapes) = &self.load_shapes else {
+            return Some(linear);
+        };
+        let ys: Vec<&[f64]> = series.iter().map(|s| s.values_kn.as_slice()).collect();
+        let Some(l) = read_with_shapes(shapes, axes, &ys, factor.0, linear.wheel_load_kn) else {
+            return Some(linear);
+        };
+        let shown_kn = l * factor.0;
+        Some(LoadEstimate {
+            interval_kn: [shown_kn / factor.1[1], shown_kn / factor.1[0]],
+            ..self.load_at(&linear, shapes, l)
+        })
     }
 }
 

@@ -44,6 +44,7 @@ pub(crate) mod family;
 pub(in crate::identify) mod flat_free;
 pub(crate) mod harmonic;
 pub(crate) mod load;
+pub(crate) mod load_shapes;
 pub mod out_of_round;
 pub mod roughness;
 pub(crate) mod spike;
@@ -230,10 +231,27 @@ pub(crate) fn detect(
     templates: &[&[f32]],
     bounds: TableBounds,
 ) -> Detection {
+    detect_with(series, templates, bounds, &[])
+}
+
+/// [`detect`] with each sensor's absolute allowance raised by `extra_kn[i]` (absent: 0): what
+/// the prediction at the pass's load may miss between a family's members
+/// ([`load_shapes::LoadShapes::interpolation_error_kn`]).
+pub(crate) fn detect_with(
+    series: &[MeasuredSeries],
+    templates: &[&[f32]],
+    bounds: TableBounds,
+    extra_kn: &[f64],
+) -> Detection {
     let sensors: Vec<SensorTest> = series
         .iter()
         .zip(templates)
-        .map(|(s, t)| test_sensor(s, t, &bounds))
+        .enumerate()
+        .map(|(i, (s, t))| {
+            let mut b = bounds;
+            b.allowance_kn += extra_kn.get(i).copied().unwrap_or(0.0);
+            test_sensor(s, t, &b)
+        })
         .collect();
     Detection {
         flat_detected: sensors.iter().any(|s| s.excess_kn > 0.0),

@@ -316,6 +316,19 @@ fn main() {
                 };
                 let r = members.get(i).identify(&m, None, Extras::NONE).unwrap();
                 let detected = r.detection.as_ref().is_some_and(|d| d.flat_detected);
+                if k < good && detected {
+                    let d = r.detection.as_ref().expect("detected");
+                    let w = d.worst().expect("a sensor");
+                    println!(
+                        "  good case {k} alarmed: load read {:.1} kN (true {:.1}), {} {:+.2} kN over its bound at {:.4} s{}",
+                        r.load.as_ref().map_or(f64::NAN, |l| l.wheel_load_kn),
+                        true_load_kn(k),
+                        w.sensor,
+                        w.excess_kn,
+                        w.at_time_s,
+                        if d.spike.as_ref().is_some_and(|s| s.flat_detected) { " (strike test)" } else { "" }
+                    );
+                }
                 let ranges = r.cms_ranges().cloned();
                 let holds = ranges.as_ref().map(|x| coverage::holds_truth(x, &t, false));
                 let width = ranges

@@ -180,6 +180,7 @@ pub(super) fn identification() -> Identification {
             bank_wheel_load_kn: 49.5,
             mean_level: 1.03,
             sensors: 2,
+            between_members_kn: None,
         }),
         bank_id: "bank-50000-4b1e".into(),
         bank_instances: 50_000,

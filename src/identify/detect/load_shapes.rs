@@ -1,0 +1,182 @@
+//! The good wheel's response between a family's loads (docs/identification.md "Load"): the
+//! flat-free predictions of the members at one speed, by static wheel load, so that a pass is
+//! read and put on its member's load with the prediction **at its own load** — interpolated
+//! linearly in load between the two members around it — instead of the member's prediction
+//! scaled in proportion. A track is linear in the load except where a sleeper hangs: its gap
+//! closes under heavier wheels, and the pad over it changes shape, not only size (issue 57).
+//!
+//! Beyond the band's ends the end member is scaled in proportion (what a single bank does).
+//! How far the linear interpolation may be from the response is measured on the family
+//! itself ([`LoadShapes::interpolation_error_kn`]).
+
+/// The members' flat-free predictions at one speed, by static wheel load.
+#[derive(Debug, Clone)]
+pub(crate) struct LoadShapes {
+    /// The members' static wheel loads (kN), ascending.
+    loads_kn: Vec<f64>,
+    /// Per member (in `loads_kn`'s order), per bank axis, the flat-free prediction (kN).
+    flat_free_kn: Vec<Vec<Vec<f32>>>,
+    /// Per bank axis, how far the interpolation may be from the response (kN;
+    /// [`LoadShapes::interpolation_error_kn`]).
+    interpolation_kn: Vec<f64>,
+}
+
+impl LoadShapes {
+    /// The shapes of `members` (static wheel load in kN, flat-free predictions per axis);
+    /// `None` unless at least two members at distinct loads share the same axes and samples.
+    pub(crate) fn new(mut members: Vec<(f64, Vec<Vec<f32>>)>) -> Option<LoadShapes> {
+        members.sort_by(|a, b| a.0.total_cmp(&b.0));
+        members.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-9);
+        let first = members.first()?;
+        let same = members.iter().all(|(l, g)| {
+            l.is_finite()
+                && *l > 0.0
+                && g.len() == first.1.len()
+                && g.iter().zip(&first.1).all(|(a, b)| a.len() == b.len())
+        });
+        if members.len() < 2 || !same {
+            return None;
+        }
+        let loads_kn: Vec<f64> = members.iter().map(|m| m.0).collect();
+        let flat_free_kn: Vec<Vec<Vec<f32>>> = members.into_iter().map(|m| m.1).collect();
+        let interpolation_kn = interpolation_error(&loads_kn, &flat_free_kn);
+        Some(LoadShapes {
+            loads_kn,
+            flat_free_kn,
+            interpolation_kn,
+        })
+    }
+
+    /// The members' loads (kN), ascending.
+    pub(crate) fn loads_kn(&self) -> &[f64] {
+        &self.loads_kn
+    }
+
+    /// The flat-free prediction on `axis` at the static wheel load `load_kn`: between two
+    /// members, linear in load; beyond the band, the end member scaled by the load's ratio.
+    pub(crate) fn at(&self, axis: usize, load_kn: f64) -> Vec<f64> {
+        let n = self.loads_kn.len();
+        let of = |k: usize| self.flat_free_kn[k][axis].iter().map(|&g| f64::from(g));
+        if load_kn <= self.loads_kn[0] || load_kn >= self.loads_kn[n - 1] {
+            let k = if load_kn <= self.loads_kn[0] {
+                0
+            } else {
+                n - 1
+            };
+            let r = load_kn / self.loads_kn[k];
+            return of(k).map(|g| g * r).collect();
+        }
+        let hi = self.loads_kn.partition_point(|&l| l < load_kn).max(1);
+        let lo = hi - 1;
+        let w = (load_kn - self.loads_kn[lo]) / (self.loads_kn[hi] - self.loads_kn[lo]);
+        of(lo).zip(of(hi)).map(|(a, b)| a + w * (b - a)).collect()
+    }
+
+    /// How far linear interpolation in load may be from the members' own response, per axis
+    /// (kN): measured on the family itself, at every interior member its prediction against
+    /// the interpolation of its two neighbours, the largest over the samples and members.
+    /// That is an interpolation over twice the family's step; where the response is smooth in
+    /// load one step's error is a quarter of it, but a hanging sleeper's gap closing is a kink,
+    /// and across a kink one step's error can be as large as two steps' (a kink half-way in a
+    /// step: both a quarter of the slope's change times the step), so the whole of it is taken.
+    /// 0 with fewer than three members (nothing to measure it on).
+    pub(crate) fn interpolation_error_kn(&self) -> &[f64] {
+        &self.interpolation_kn
+    }
+}
+
+/// [`LoadShapes::interpolation_error_kn`] of members at `loads_kn` (ascending).
+fn interpolation_error(loads_kn: &[f64], flat_free_kn: &[Vec<Vec<f32>>]) -> Vec<f64> {
+    (0..flat_free_kn[0].len())
+        .map(|a| {
+            (1..loads_kn.len().saturating_sub(1))
+                .map(|k| {
+                    let w = (loads_kn[k] - loads_kn[k - 1]) / (loads_kn[k + 1] - loads_kn[k - 1]);
+                    let [g0, g1, g2] = [k - 1, k, k + 1].map(|j| &flat_free_kn[j][a]);
+                    g0.iter()
+                        .zip(g1)
+                        .zip(g2)
+                        .map(|((&x0, &x1), &x2)| {
+                            let between = f64::from(x0) + w * f64::from(x2 - x0);
+                            (f64::from(x1) - between).abs()
+                        })
+                        .fold(0.0, f64::max)
+                })
+                .fold(0.0, f64::max)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One axis, three samples: a response linear in load but for the last sample, which
+    /// grows as the load's square (a gap closing).
+    fn shapes() -> LoadShapes {
+        let at = |l: f64| vec![vec![l as f32, 2.0 * l as f32, (l * l / 40.0) as f32]];
+        LoadShapes::new(vec![(60.0, at(60.0)), (30.0, at(30.0)), (45.0, at(45.0))]).unwrap()
+    }
+
+    #[test]
+    fn between_members_the_prediction_is_linear_in_load_and_beyond_them_proportional() {
+        let s = shapes();
+        assert_eq!(s.loads_kn(), &[30.0, 45.0, 60.0]);
+        // At a member: its own prediction.
+        let g = s.at(0, 45.0);
+        assert!(
+            (g[0] - 45.0).abs() < 1e-5 && (g[2] - 50.625).abs() < 1e-4,
+            "{g:?}"
+        );
+        // Between two: linear (the linear samples exact, the square one between its chords).
+        let g = s.at(0, 37.5);
+        assert!(
+            (g[0] - 37.5).abs() < 1e-5 && (g[1] - 75.0).abs() < 1e-4,
+            "{g:?}"
+        );
+        let chord = 0.5 * (22.5 + 50.625);
+        assert!((g[2] - chord).abs() < 1e-4, "{g:?}");
+        // Beyond the band: the end member scaled by the load.
+        let g = s.at(0, 66.0);
+        assert!((g[2] - 90.0 * 1.1).abs() < 1e-3, "{g:?}");
+        let g = s.at(0, 27.0);
+        assert!((g[0] - 27.0).abs() < 1e-4, "{g:?}");
+    }
+
+    #[test]
+    fn the_interpolation_error_is_measured_on_the_family_itself() {
+        // l²/40 at 45 against the chord from 30 to 60: 50.625 against 56.25, 5.625 kN; the
+        // linear samples exact.
+        let e = shapes().interpolation_error_kn();
+        assert!((e[0] - 5.625).abs() < 1e-3, "{e:?}");
+        // It bounds one step's error for the square (7.5²/40 = 1.41 kN at 37.5)…
+        let s = shapes();
+        assert!((s.at(0, 37.5)[2] - 37.5 * 37.5 / 40.0).abs() <= e[0]);
+        // …and for a kink half-way in a step (a gap closing at 52.5 kN): one step's error at
+        // the kink is as large as the two steps' at the interior member.
+        let kink = |l: f64| vec![vec![(2.0 * (l - 52.5).max(0.0)) as f32]];
+        let k = LoadShapes::new(vec![
+            (45.0, kink(45.0)),
+            (60.0, kink(60.0)),
+            (75.0, kink(75.0)),
+        ])
+        .unwrap();
+        let two_steps = k.interpolation_error_kn()[0];
+        let one_step = (k.at(0, 52.5)[0] - 0.0).abs();
+        assert!(
+            (one_step - 7.5).abs() < 1e-4 && one_step <= two_steps + 1e-9,
+            "{one_step} {two_steps}"
+        );
+    }
+
+    #[test]
+    fn members_that_disagree_in_shape_or_a_single_member_give_no_shapes() {
+        assert!(LoadShapes::new(vec![(30.0, vec![vec![1.0; 3]])]).is_none());
+        assert!(
+            LoadShapes::new(vec![(30.0, vec![vec![1.0; 3]]), (40.0, vec![vec![1.0; 4]])]).is_none()
+        );
+        assert!(
+            LoadShapes::new(vec![(30.0, vec![vec![1.0; 3]]), (30.0, vec![vec![2.0; 3]])]).is_none()
+        );
+    }
+}
