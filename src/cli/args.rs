@@ -232,8 +232,10 @@ pub(super) struct GenerateArgs {
     #[arg(long, value_parser = SpeedBand::parse)]
     pub speeds: Option<SpeedBand>,
     /// A family over loads too: members at car-body masses FROM:TO:STEP × the calibration's
-    /// (e.g. `0.6:1.1:0.5`), at every speed (the calibration's, without --speeds).
-    #[arg(long, value_name = "FROM:TO:STEP")]
+    /// (e.g. `0.6:1.1:0.5`), at every speed (the calibration's, without --speeds); `auto`:
+    /// 0.6–1.4 at the step the site's calibration states (`population.family_load_step`,
+    /// written by `calibrate`).
+    #[arg(long, value_name = "FROM:TO:STEP|auto")]
     pub loads: Option<String>,
 }
 

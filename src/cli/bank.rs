@@ -55,6 +55,7 @@ pub(super) fn generate(a: &GenerateArgs, simulate_missing: bool) -> Result<()> {
         false => None,
     };
     let loads = match &a.loads {
+        Some(text) if text == "auto" => Some(auto_loads(&cal)?),
         Some(text) => Some(
             bank::LoadBand::parse(text, &cal.vehicle)
                 .map_err(|e| anyhow::anyhow!("--loads {e}"))?,
@@ -343,4 +344,31 @@ pub(super) fn audit_bank(
         report.results.len(),
         report.worst_kn()
     )
+}
+
+/// `--loads auto`: the site's band (`site::load_step::BAND`) at the step its calibration
+/// states (`population.family_load_step`, written by `calibrate`), else at the coarsest step
+/// of `site::load_step::STEPS` the load tolerances admit (a linear track); said on stderr.
+fn auto_loads(cal: &wheelflat::model::CheckedCalibration) -> anyhow::Result<bank::LoadBand> {
+    use wheelflat::site::load_step::{BAND, STEPS};
+    let text = |step: f64| format!("{}:{}:{step}", BAND[0], BAND[1]);
+    let (band, why) = match cal.population.family_load_step {
+        Some(step) => (
+            bank::LoadBand::parse(&text(step), &cal.vehicle)
+                .map_err(|e| anyhow::anyhow!("--loads auto (population.family_load_step = {step}): {e}"))?,
+            "population.family_load_step, written by calibrate",
+        ),
+        None => (
+            STEPS
+                .iter()
+                .find_map(|&s| bank::LoadBand::parse(&text(s), &cal.vehicle).ok())
+                .ok_or_else(|| anyhow::anyhow!("--loads auto: no step of {STEPS:?} covers {}–{} × the car body within the load tolerances", BAND[0], BAND[1]))?,
+            "the coarsest the load tolerances admit: the calibration states no population.family_load_step (run calibrate at a site with a hanging sleeper)",
+        ),
+    };
+    eprintln!(
+        "--loads auto: car-body mass {}–{} × every {} ({why})",
+        band.from, band.to, band.step
+    );
+    Ok(band)
 }

@@ -193,6 +193,9 @@ fn words(c: &site::SiteCalibration) -> String {
         100.0 * c.per_pass_quantiles[0],
         100.0 * c.per_pass_quantiles[1]
     );
+    if let Some(l) = &c.load_step {
+        s += &format!("{}\n", l.words());
+    }
     for x in &c.set_aside {
         s += &format!(
             "set aside {}: its misfit is {:.1}× the passes' median after the fit (a flat, or no good wheel on this track); fitted again without it\n",

@@ -7,6 +7,7 @@
 pub mod drift;
 mod error;
 pub mod fit;
+pub mod load_step;
 pub mod passes;
 pub mod reference;
 pub use error::SiteError;
@@ -134,6 +135,10 @@ pub struct SiteCalibration {
     /// Passes set aside after the first fit as no good wheel on the fitted track.
     #[serde(default)]
     pub set_aside: Vec<screen::SetAside>,
+    /// How far the good wheel departs from linear in load, and the family's load step
+    /// written (`population.family_load_step`); `None` in a calibration written before it.
+    #[serde(default)]
+    pub load_step: Option<load_step::LoadStep>,
     /// The calibrated calibration.
     pub calibration: Calibration,
 }
@@ -332,6 +337,10 @@ fn calibrate_once(
         doc.population.fold_to_one_bay = false;
     }
     let misfits = track.misfits(&used, passes)?;
+    let noise_kn =
+        crate::identify::domain::table_bounds::TableBounds::of(&cal.identification).absolute_kn;
+    let step = load_step::measure(&track, &used, &cal.vehicle, noise_kn)?;
+    doc.population.family_load_step = Some(step.step);
     let c = SiteCalibration {
         passes_fitted: fitted.len(),
         passes_held_back: held.len(),
@@ -346,6 +355,7 @@ fn calibrate_once(
         iterations: f.iterations,
         simulations: f.simulations,
         set_aside: Vec::new(),
+        load_step: Some(step),
         calibration: doc,
     };
     Ok((c, misfits))

@@ -241,7 +241,10 @@ fn a_good_wheel_between_two_members_at_a_hanging_sleeper_is_a_good_wheel() {
             let out = members.get(k).identify(&m, None, Extras::NONE).unwrap();
             let load = out.load.clone().unwrap();
             let [a, b] = load.between_members_kn.expect("read between members");
-            assert!(a < truth_kn && truth_kn < b, "F {f}: {truth_kn:.1} kN not in [{a}, {b}]");
+            assert!(
+                a < truth_kn && truth_kn < b,
+                "F {f}: {truth_kn:.1} kN not in [{a}, {b}]"
+            );
             assert!(
                 load.interval_kn[0] <= truth_kn && truth_kn <= load.interval_kn[1],
                 "F {f}: {truth_kn:.1} kN outside {:?}",

@@ -136,6 +136,7 @@ impl Default for Calibration {
                 impact_position_m: [12.0, 12.0 + std::f64::consts::TAU * 0.400],
                 flat_wheels: Some(vec![WheelPosition::Leading, WheelPosition::Trailing]),
                 fold_to_one_bay: true,
+                family_load_step: None,
             },
             effects: Vec::new(),
             identification: IdentificationParams::default(),

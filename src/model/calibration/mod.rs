@@ -238,6 +238,12 @@ pub struct PopulationParams {
     /// windows of the sensors shifted back by up to [`Calibration::fold_shifts`] sleepers.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub fold_to_one_bay: bool,
+    /// The car-body step (a factor of `vehicle.car_body_mass_kg`) a family over loads needs at
+    /// this site: `calibrate` measures how far the good wheel departs from linear in load
+    /// (a hanging sleeper) and writes it; `bank generate --loads auto` builds 0.6–1.4 at it.
+    /// Absent: the coarsest step the load tolerances allow (a linear track).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub family_load_step: Option<f64>,
 }
 
 /// Whether an uncertainty source scales with the force or is a fixed amount.

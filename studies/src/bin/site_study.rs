@@ -334,6 +334,18 @@ fn main() {
                 let width = ranges
                     .as_ref()
                     .map_or(f64::NAN, |x| x.l0_mm[1] - x.l0_mm[0]);
+                if k >= good && holds != Some(true) {
+                    println!(
+                        "  flat case {k} not held: L0 {:.1} mm, d {:.3} mm, {}; answered {:?}; load read {:.1} kN (true {:.1}){}",
+                        t.l0_mm,
+                        t.depth_mm,
+                        if detected { "detected" } else { "not detected" },
+                        ranges.as_ref().map(|x| x.l0_mm),
+                        r.load.as_ref().map_or(f64::NAN, |l| l.wheel_load_kn),
+                        true_load_kn(k),
+                        if r.model_class_refuted() { ", refuted" } else { "" }
+                    );
+                }
                 (
                     k,
                     if k < good { Some(detected) } else { holds },
