@@ -130,6 +130,15 @@ fn a_calibrated_site_finds_its_track_and_quiets_most_of_its_good_wheels() {
             t / gm
         );
     }
+    // The hanging sleeper makes the good wheel depart from linear in load: calibrate
+    // measures it per step (the error shrinking as the step does) and writes the coarsest
+    // step within the table's noise bound; a step of 0.4 misses it.
+    let step = c.load_step.as_ref().expect("calibrate measures the load step");
+    println!("{}", step.words());
+    let e: Vec<f64> = step.errors_kn.iter().map(|x| x[1]).collect();
+    assert!(e.windows(2).all(|w| w[0] >= w[1]), "{e:?}");
+    assert!(e[0] > step.tolerance_kn && step.step < 0.4, "{step:?}");
+    assert_eq!(c.calibration.population.family_load_step, Some(step.step));
     // The default calls this site's good wheels flats; the calibrated family (over the
     // loads the site's cars carry: a hanging sleeper's response changes shape with the load,
     // which a bank at one load cannot follow) does not.
@@ -156,14 +165,10 @@ fn a_calibrated_site_finds_its_track_and_quiets_most_of_its_good_wheels() {
         flagged_site += usize::from(flagged(&mut site_id));
     }
     println!("good wheels not quiet: default {flagged_default} of 10, calibrated {flagged_site}");
-    // Measured (2026-11-27): default 10 of 10, calibrated family 2 of 10. The goal (≥ 99 %
-    // quiet) is not reached at a site with a hanging sleeper: docs/calibration.md, "The model
-    // learns its site", says why and what would reach it.
+    // Measured (2026-11-28): default 10 of 10, calibrated family 0 of 10 — 2 of 10 before the
+    // pass was read and put on its member with the members' shapes (issue 57).
     assert_eq!(flagged_default, 10, "the default must not fit this site");
-    assert!(
-        flagged_site <= 3,
-        "calibrated family: {flagged_site} of 10 not quiet"
-    );
+    assert_eq!(flagged_site, 0, "calibrated family: {flagged_site} of 10 not quiet");
 }
 
 #[test]
