@@ -133,7 +133,10 @@ fn a_calibrated_site_finds_its_track_and_quiets_most_of_its_good_wheels() {
     // The hanging sleeper makes the good wheel depart from linear in load: calibrate
     // measures it per step (the error shrinking as the step does) and writes the coarsest
     // step within the table's noise bound; a step of 0.4 misses it.
-    let step = c.load_step.as_ref().expect("calibrate measures the load step");
+    let step = c
+        .load_step
+        .as_ref()
+        .expect("calibrate measures the load step");
     println!("{}", step.words());
     let e: Vec<f64> = step.errors_kn.iter().map(|x| x[1]).collect();
     assert!(e.windows(2).all(|w| w[0] >= w[1]), "{e:?}");
@@ -168,7 +171,10 @@ fn a_calibrated_site_finds_its_track_and_quiets_most_of_its_good_wheels() {
     // Measured (2026-11-28): default 10 of 10, calibrated family 0 of 10 — 2 of 10 before the
     // pass was read and put on its member with the members' shapes (issue 57).
     assert_eq!(flagged_default, 10, "the default must not fit this site");
-    assert_eq!(flagged_site, 0, "calibrated family: {flagged_site} of 10 not quiet");
+    assert_eq!(
+        flagged_site, 0,
+        "calibrated family: {flagged_site} of 10 not quiet"
+    );
 }
 
 #[test]

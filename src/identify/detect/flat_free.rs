@@ -24,13 +24,10 @@ impl Identifier {
         c: Comparison,
     ) -> Detection {
         let templates: Vec<&[f32]> = axes.iter().map(|&a| self.flat_free(a, c)).collect();
-        // On a family over loads, each sensor's allowance holds what the prediction at the
-        // pass's load may miss between members (0 on a linear track).
-        let extra: Vec<f64> = match &self.load_shapes {
-            Some(s) => axes
-                .iter()
-                .map(|&a| s.interpolation_error_kn()[a])
-                .collect(),
+        // On a family over loads, each sample's bound holds what the prediction at the pass's
+        // load may miss there between members (0 on a linear track).
+        let extra: Vec<&[f64]> = match &self.load_shapes {
+            Some(s) => axes.iter().map(|&a| s.interpolation_error_kn(a)).collect(),
             None => Vec::new(),
         };
         detect::detect_with(series, &templates, bounds, &extra)

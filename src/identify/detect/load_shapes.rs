@@ -16,9 +16,9 @@ pub(crate) struct LoadShapes {
     loads_kn: Vec<f64>,
     /// Per member (in `loads_kn`'s order), per bank axis, the flat-free prediction (kN).
     flat_free_kn: Vec<Vec<Vec<f32>>>,
-    /// Per bank axis, how far the interpolation may be from the response (kN;
+    /// Per bank axis and sample, how far the interpolation may be from the response (kN;
     /// [`LoadShapes::interpolation_error_kn`]).
-    interpolation_kn: Vec<f64>,
+    interpolation_kn: Vec<Vec<f64>>,
 }
 
 impl LoadShapes {
@@ -72,37 +72,42 @@ impl LoadShapes {
         of(lo).zip(of(hi)).map(|(a, b)| a + w * (b - a)).collect()
     }
 
-    /// How far linear interpolation in load may be from the members' own response, per axis
-    /// (kN): measured on the family itself, at every interior member its prediction against
-    /// the interpolation of its two neighbours, the largest over the samples and members.
+    /// How far linear interpolation in load may be from the members' own response on `axis`,
+    /// per sample (kN): measured on the family itself, at every interior member its prediction
+    /// against the interpolation of its two neighbours, the largest over the members, and over
+    /// the two samples either side (detection may compare through a five-sample average).
     /// That is an interpolation over twice the family's step; where the response is smooth in
     /// load one step's error is a quarter of it, but a hanging sleeper's gap closing is a kink,
     /// and across a kink one step's error can be as large as two steps' (a kink half-way in a
     /// step: both a quarter of the slope's change times the step), so the whole of it is taken.
     /// 0 with fewer than three members (nothing to measure it on).
-    pub(crate) fn interpolation_error_kn(&self) -> &[f64] {
-        &self.interpolation_kn
+    pub(crate) fn interpolation_error_kn(&self, axis: usize) -> &[f64] {
+        &self.interpolation_kn[axis]
     }
 }
 
-/// [`LoadShapes::interpolation_error_kn`] of members at `loads_kn` (ascending).
-fn interpolation_error(loads_kn: &[f64], flat_free_kn: &[Vec<Vec<f32>>]) -> Vec<f64> {
+/// [`LoadShapes::interpolation_error_kn`] of members at `loads_kn` (ascending), every axis.
+fn interpolation_error(loads_kn: &[f64], flat_free_kn: &[Vec<Vec<f32>>]) -> Vec<Vec<f64>> {
     (0..flat_free_kn[0].len())
         .map(|a| {
-            (1..loads_kn.len().saturating_sub(1))
-                .map(|k| {
-                    let w = (loads_kn[k] - loads_kn[k - 1]) / (loads_kn[k + 1] - loads_kn[k - 1]);
-                    let [g0, g1, g2] = [k - 1, k, k + 1].map(|j| &flat_free_kn[j][a]);
-                    g0.iter()
-                        .zip(g1)
-                        .zip(g2)
-                        .map(|((&x0, &x1), &x2)| {
-                            let between = f64::from(x0) + w * f64::from(x2 - x0);
-                            (f64::from(x1) - between).abs()
-                        })
-                        .fold(0.0, f64::max)
+            let n = flat_free_kn[0][a].len();
+            let mut e = vec![0.0f64; n];
+            for k in 1..loads_kn.len().saturating_sub(1) {
+                let w = (loads_kn[k] - loads_kn[k - 1]) / (loads_kn[k + 1] - loads_kn[k - 1]);
+                let [g0, g1, g2] = [k - 1, k, k + 1].map(|j| &flat_free_kn[j][a]);
+                for (i, x) in e.iter_mut().enumerate() {
+                    let between = f64::from(g0[i]) + w * f64::from(g2[i] - g0[i]);
+                    *x = x.max((f64::from(g1[i]) - between).abs());
+                }
+            }
+            // The largest within two samples either side.
+            (0..n)
+                .map(|i| {
+                    e[i.saturating_sub(2)..(i + 3).min(n)]
+                        .iter()
+                        .fold(0.0f64, |m, &x| m.max(x))
                 })
-                .fold(0.0, f64::max)
+                .collect()
         })
         .collect()
 }
@@ -147,11 +152,12 @@ mod tests {
     fn the_interpolation_error_is_measured_on_the_family_itself() {
         // l²/40 at 45 against the chord from 30 to 60: 50.625 against 56.25, 5.625 kN; the
         // linear samples exact.
-        let e = shapes().interpolation_error_kn();
-        assert!((e[0] - 5.625).abs() < 1e-3, "{e:?}");
-        // It bounds one step's error for the square (7.5²/40 = 1.41 kN at 37.5)…
         let s = shapes();
-        assert!((s.at(0, 37.5)[2] - 37.5 * 37.5 / 40.0).abs() <= e[0]);
+        let e = s.interpolation_error_kn(0);
+        // Within two samples of the square one: 5.625 kN on all three samples here.
+        assert!(e.iter().all(|x| (x - 5.625).abs() < 1e-3), "{e:?}");
+        // It bounds one step's error for the square (7.5²/40 = 1.41 kN at 37.5)…
+        assert!((s.at(0, 37.5)[2] - 37.5 * 37.5 / 40.0).abs() <= e[2]);
         // …and for a kink half-way in a step (a gap closing at 52.5 kN): one step's error at
         // the kink is as large as the two steps' at the interior member.
         let kink = |l: f64| vec![vec![(2.0 * (l - 52.5).max(0.0)) as f32]];
@@ -161,7 +167,7 @@ mod tests {
             (75.0, kink(75.0)),
         ])
         .unwrap();
-        let two_steps = k.interpolation_error_kn()[0];
+        let two_steps = k.interpolation_error_kn(0)[0];
         let one_step = (k.at(0, 52.5)[0] - 0.0).abs();
         assert!(
             (one_step - 7.5).abs() < 1e-4 && one_step <= two_steps + 1e-9,

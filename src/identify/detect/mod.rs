@@ -175,10 +175,21 @@ impl Detection {
 }
 
 /// Tests one sensor's series `y` against the flat-free prediction `g` (same samples).
+#[cfg(test)]
 pub(crate) fn test_sensor(
     sensor: &MeasuredSeries,
     template_kn: &[f32],
     bounds: &TableBounds,
+) -> SensorTest {
+    test_sensor_with(sensor, template_kn, bounds, &[])
+}
+
+/// [`test_sensor`] with the bound at sample `k` raised by `extra_kn[k]` (absent: 0).
+fn test_sensor_with(
+    sensor: &MeasuredSeries,
+    template_kn: &[f32],
+    bounds: &TableBounds,
+    extra_kn: &[f64],
 ) -> SensorTest {
     let y = &sensor.values_kn;
     let peak = template_kn
@@ -206,7 +217,7 @@ pub(crate) fn test_sensor(
         let g = f64::from(g);
         let r = y - gain * g;
         departure_kn = departure_kn.max(r.abs());
-        let excess = r.abs() - bounds.bound_kn(gain, g);
+        let excess = r.abs() - bounds.bound_kn(gain, g) - extra_kn.get(k).copied().unwrap_or(0.0);
         if excess > worst.0 {
             worst = (excess, k, r);
         }
@@ -234,24 +245,20 @@ pub(crate) fn detect(
     detect_with(series, templates, bounds, &[])
 }
 
-/// [`detect`] with each sensor's absolute allowance raised by `extra_kn[i]` (absent: 0): what
-/// the prediction at the pass's load may miss between a family's members
+/// [`detect`] with sensor `i`'s bound at sample `k` raised by `extra_kn[i][k]` (absent: 0):
+/// what the prediction at the pass's load may miss there between a family's members
 /// ([`load_shapes::LoadShapes::interpolation_error_kn`]).
 pub(crate) fn detect_with(
     series: &[MeasuredSeries],
     templates: &[&[f32]],
     bounds: TableBounds,
-    extra_kn: &[f64],
+    extra_kn: &[&[f64]],
 ) -> Detection {
     let sensors: Vec<SensorTest> = series
         .iter()
         .zip(templates)
         .enumerate()
-        .map(|(i, (s, t))| {
-            let mut b = bounds;
-            b.allowance_kn += extra_kn.get(i).copied().unwrap_or(0.0);
-            test_sensor(s, t, &b)
-        })
+        .map(|(i, (s, t))| test_sensor_with(s, t, &bounds, extra_kn.get(i).copied().unwrap_or(&[])))
         .collect();
     Detection {
         flat_detected: sensors.iter().any(|s| s.excess_kn > 0.0),
