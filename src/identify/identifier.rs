@@ -9,10 +9,10 @@ use crate::bank::departures::{self, Departures};
 use crate::bank::out_of_round::OutOfRoundBasis;
 use crate::bank::roughness::RoughnessTable;
 use crate::bank::{Bank, Parameters};
-use crate::identify::detect::load_shapes::LoadShapes;
 use crate::identify::domain::cells::Cells;
 use crate::identify::domain::discretisation::{self, share, static_load_kn};
 use crate::identify::domain::falsify::Resolution;
+use crate::identify::domain::load_shapes::LoadShapes;
 use crate::identify::domain::table_bounds::TableBounds;
 use crate::identify::error::IdentifyError;
 use crate::identify::input;
@@ -49,7 +49,7 @@ pub struct Identifier {
     pub(super) out_of_round:
         Mutex<Option<std::sync::Arc<crate::bank::out_of_round::OutOfRoundBasis>>>,
     /// The flat-free predictions of the family's members at this bank's speed, by load
-    /// ([`crate::identify::detect::load_shapes`]); `None` on a single bank or one load.
+    /// ([`crate::identify::domain::load_shapes`]); `None` on a single bank or one load.
     pub(super) load_shapes: Option<Arc<LoadShapes>>,
 }
 
@@ -113,7 +113,7 @@ impl Identifier {
     }
 
     /// Reads and puts every pass on this bank's load with the members' shapes `shapes` (a
-    /// family over loads; [`crate::identify::detect::load_shapes`]).
+    /// family over loads; [`crate::identify::domain::load_shapes`]).
     pub(crate) fn set_load_shapes(&mut self, shapes: Option<Arc<LoadShapes>>) {
         self.load_shapes = shapes;
     }

@@ -3,7 +3,7 @@
 //! bogies run at several speeds).
 
 use crate::bank::family::Family;
-use crate::identify::detect::load_shapes::LoadShapes;
+use crate::identify::domain::load_shapes::LoadShapes;
 use crate::identify::error::IdentifyError;
 use crate::identify::identifier::Identifier;
 use crate::identify::input::measurement::Measurement;

@@ -14,8 +14,8 @@
 //! level alone is ±15 % (95 %), two sensors' ±11 %, five sensors' ±7 %: the record cannot tell
 //! the load better than the model's level is known, and the interval says so.
 
-use super::load_shapes::LoadShapes;
 use crate::identify::detect::Detection;
+use crate::identify::domain::load_shapes::LoadShapes;
 use crate::identify::domain::uncertainty::draw_sources;
 use crate::identify::input::measurement::MeasuredSeries;
 use crate::model::calibration::{
@@ -46,7 +46,7 @@ pub struct LoadEstimate {
     /// Sensors it was read from.
     pub sensors: usize,
     /// On a family over loads, the loads of the two members the record was read between
-    /// with their own shapes ([`super::load_shapes`]; kN); `None`: read on one bank.
+    /// with their own shapes ([`crate::identify::domain::load_shapes`]; kN); `None`: read on one bank.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub between_members_kn: Option<[f64; 2]>,
 }
@@ -187,7 +187,7 @@ fn level_over(y: &[f64], g: &[f64]) -> Option<f64> {
 
 /// The load `L` at which the record's mean level over the members' prediction at `L` is the
 /// table's mean level factor `mean` — the linear read's own condition, with the prediction at
-/// the load itself instead of the bank's scaled ([`super::load_shapes`]); bracketed from the
+/// the load itself instead of the bank's scaled ([`crate::identify::domain::load_shapes`]); bracketed from the
 /// linear read `start_kn` outwards in 2 % steps, then bisected to 0.01 %. `None` when no
 /// sensor has loaded samples or no root lies within a factor of two of `start_kn`.
 fn read_with_shapes(

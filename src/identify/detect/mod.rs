@@ -44,7 +44,6 @@ pub(crate) mod family;
 pub(in crate::identify) mod flat_free;
 pub(crate) mod harmonic;
 pub(crate) mod load;
-pub(crate) mod load_shapes;
 pub mod out_of_round;
 pub mod roughness;
 pub(crate) mod spike;
@@ -247,7 +246,7 @@ pub(crate) fn detect(
 
 /// [`detect`] with sensor `i`'s bound at sample `k` raised by `extra_kn[i][k]` (absent: 0):
 /// what the prediction at the pass's load may miss there between a family's members
-/// ([`load_shapes::LoadShapes::interpolation_error_kn`]).
+/// ([`crate::identify::domain::load_shapes::LoadShapes::interpolation_error_kn`]).
 pub(crate) fn detect_with(
     series: &[MeasuredSeries],
     templates: &[&[f32]],

@@ -6,6 +6,7 @@
 pub(crate) mod cells;
 pub(in crate::identify) mod discretisation;
 pub mod falsify;
+pub(crate) mod load_shapes;
 pub(crate) mod shared_gain;
 pub(crate) mod table_bounds;
 pub(crate) mod uncertainty;

@@ -232,16 +232,7 @@ impl Calibration {
         range("population.curvature_mm", p.curvature_mm, -1.0)?;
         non_negative("population.curvature_mm[0]", p.curvature_mm[0])?;
         range("population.impact_position_m", p.impact_position_m, -1.0)?;
-        if let Some(step) = p.family_load_step {
-            let hundredths = step * 100.0;
-            if !(0.01..=0.8).contains(&step) || (hundredths - hundredths.round()).abs() > 1e-6 {
-                return Err(invalid(
-                    "population.family_load_step",
-                    step,
-                    "a factor of the car-body mass in 0.01–0.8, a multiple of 0.01",
-                ));
-            }
-        }
+        super::family_step::check(p.family_load_step)?;
         if let Some(w) = &p.flat_wheels {
             if w.is_empty() || (w.len() == 2 && w[0] == w[1]) || w.len() > 2 {
                 return Err(invalid(

@@ -9,8 +9,8 @@
 
 mod check;
 mod defaults;
+mod family_step;
 mod fold;
-
 mod maintenance;
 mod mesh;
 mod roughness;
@@ -225,23 +225,17 @@ pub struct PopulationParams {
     pub curvature_mm: [f64; 2],
     /// Impact position X_p range (m).
     pub impact_position_m: [f64; 2],
-    /// The wheels that may carry the flat, spread over the instances (a fifth low-discrepancy
-    /// coordinate picks one per instance). Absent: `vehicle.flat_wheel` only, the paper's
-    /// profile. The site profile (the default) has both, with
-    /// X_p over one wheel revolution.
+    /// The wheels that may carry the flat (a fifth low-discrepancy coordinate picks one per
+    /// instance). Absent: `vehicle.flat_wheel` only (the paper's); the site profile has both.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub flat_wheels: Option<Vec<WheelPosition>>,
-    /// Store X_p over the first sleeper bay of `impact_position_m` only, and stand in for the
-    /// rest of the range by whole-bay shifts: the track is periodic, so a strike one bay later
-    /// gives the same forces one sensor later ([`Calibration::fold_shifts`], docs/bank.md
-    /// "Folded banks"). The range must then be one wheel revolution; the bank stores the
-    /// windows of the sensors shifted back by up to [`Calibration::fold_shifts`] sleepers.
+    /// Store X_p over the first sleeper bay only, the rest of the range (one wheel revolution)
+    /// stood in for by whole-bay shifts of the periodic track ([`Calibration::fold_shifts`],
+    /// docs/bank.md "Folded banks").
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub fold_to_one_bay: bool,
-    /// The car-body step (a factor of `vehicle.car_body_mass_kg`) a family over loads needs at
-    /// this site: `calibrate` measures how far the good wheel departs from linear in load
-    /// (a hanging sleeper) and writes it; `bank generate --loads auto` builds 0.6–1.4 at it.
-    /// Absent: the coarsest step the load tolerances allow (a linear track).
+    /// The car-body step a site's family over loads needs (written by `calibrate`; read by
+    /// `bank generate --loads auto`; [`family_step`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub family_load_step: Option<f64>,
 }
