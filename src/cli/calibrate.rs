@@ -113,18 +113,21 @@ pub(super) fn run(a: &CalibrateArgs) -> Result<i32> {
         c.simulations,
         clock.elapsed().as_secs_f64()
     );
-    let report = serde_json::to_string_pretty(&c).context("the report serialises")?;
-    write_file(&a.report, report.as_bytes())?;
+    let mut c = c;
     if a.check {
         let (_, start) = site::fit::TrackFit::new(&cal);
-        let moved = drift::drifted(&c, &start[1..]);
+        c.check = Some(drift::drifted(&c, &start[1..]));
+    }
+    let report = serde_json::to_string_pretty(&c).context("the report serialises")?;
+    write_file(&a.report, report.as_bytes())?;
+    if let Some(moved) = &c.check {
         if moved.is_empty() {
             println!(
                 "no drift: every value within its tolerance of the calibration's; nothing written"
             );
             return Ok(0);
         }
-        for d in &moved {
+        for d in moved {
             println!(
                 "drifted: {} was {:.3}, now {:.3} [{:.3}, {:.3}]",
                 d.what, d.was, d.now[0], d.now[1], d.now[2]

@@ -43,10 +43,7 @@ impl Identifier {
         let comparison = roughness.comparison();
         // The load the record shows, and the record put on the bank's load (input::load::at_bank_load).
         let recorded = self.detect(&axes, &series, self.bounds, Comparison::Samples);
-        let detected_by = self.detection_comparison();
-        let load = self
-            .load_of(&axes, &series, &recorded)
-            .map(|l| self.load_by_shape(&axes, &series, l, bounds, detected_by));
+        let load = self.load_of(&axes, &series, &recorded);
         if let Some(l) = load.as_ref().filter(|_| !extras.as_recorded) {
             self.at_bank_load(&axes, &mut series, l);
         }
@@ -54,6 +51,7 @@ impl Identifier {
         // wheels stated round, sample by sample as every pass did before roughness was
         // allowed for.
         let averaged = Comparison::Binomial5.series(&series);
+        let detected_by = self.detection_comparison();
         let stated_round = detected_by == Comparison::Samples;
         let detection = if stated_round {
             self.detect(&axes, &series, bounds, Comparison::Samples)

@@ -6,7 +6,8 @@
 //! - [`access`]: where it may listen (localhost, or elsewhere only with a token) and the token
 //!   check.
 //! - [`state`]: the database opened read-only, a few connections kept for the requests.
-//! - [`site`], [`wheel`], [`pass`]: each page's numbers (the JSON) and its HTML.
+//! - [`site`], [`wheel`], [`pass`]: each page's numbers (the JSON) and its HTML; [`setup`]:
+//!   the site page's family, calibration and newest nightly check.
 //! - [`layout`]: the page around them, the class colours, the refresh without reloading.
 //! - [`drawn`]: a pass's report drawn on request when its command wrote only the JSON.
 //!
@@ -19,6 +20,7 @@ mod error;
 mod layout;
 mod pass;
 mod routes;
+mod setup;
 mod site;
 pub(crate) mod state;
 mod wheel;

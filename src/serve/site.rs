@@ -93,6 +93,8 @@ pub(super) struct SiteView {
     pub(super) hours: f64,
     /// The bank given to the server.
     pub(super) bank: Option<BankStatus>,
+    /// Its family, calibration and newest nightly check ([`super::setup`]).
+    pub(super) setup: Option<super::setup::SiteSetup>,
     /// The banks the passes of the window were compared with.
     pub(super) banks: Vec<BankUse>,
     /// Wheels that need action, gravest first (at most [`MAX_ACTION_SHOWN`]).
@@ -177,6 +179,7 @@ pub(super) fn site_view(state: &AppState, q: SiteQuery) -> Result<SiteView, DbEr
             limits_l0_mm: s.limits_l0_mm,
             hours,
             bank,
+            setup: s.bank.as_deref().map(super::setup::setup),
             banks: db.banks_since(since)?,
             action,
             action_total,
@@ -304,5 +307,6 @@ pub(super) fn site_html(v: &SiteView) -> Markup {
                 @for b in &v.banks { tr { td { code { (b.bank_id) } } td.num { (b.passes) } td { (b.last_time) } } }
             }
         }
+        @if let Some(x) = &v.setup { (super::setup::setup_html(x)) }
     }
 }

@@ -139,6 +139,10 @@ pub struct SiteCalibration {
     /// written (`population.family_load_step`); `None` in a calibration written before it.
     #[serde(default)]
     pub load_step: Option<load_step::LoadStep>,
+    /// Written by `calibrate --check`: the values that drifted from the bank's calibration
+    /// (empty: none); `None` for a calibration without `--check`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub check: Option<Vec<drift::Drifted>>,
     /// The calibrated calibration.
     pub calibration: Calibration,
 }
@@ -356,6 +360,7 @@ fn calibrate_once(
         simulations: f.simulations,
         set_aside: Vec::new(),
         load_step: Some(step),
+        check: None,
         calibration: doc,
     };
     Ok((c, misfits))

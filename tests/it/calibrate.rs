@@ -168,11 +168,13 @@ fn a_calibrated_site_finds_its_track_and_quiets_most_of_its_good_wheels() {
         flagged_site += usize::from(flagged(&mut site_id));
     }
     println!("good wheels not quiet: default {flagged_default} of 10, calibrated {flagged_site}");
-    // Measured (2026-11-28): default 10 of 10, calibrated family 0 of 10 — 2 of 10 before the
-    // pass was read and put on its member with the members' shapes (issue 57).
+    // Measured (2026-11-28): default 10 of 10, calibrated family 1 of 10 — 2 of 10 before the
+    // pass was read and put on its member with the members' shapes (issue 57); 0 of 10 with a
+    // search of the load inside its interval, not kept: it hid small flats at the study sites
+    // (docs/calibration.md, "The family's load step").
     assert_eq!(flagged_default, 10, "the default must not fit this site");
-    assert_eq!(
-        flagged_site, 0,
+    assert!(
+        flagged_site <= 1,
         "calibrated family: {flagged_site} of 10 not quiet"
     );
 }

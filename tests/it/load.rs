@@ -257,3 +257,74 @@ fn a_good_wheel_between_two_members_at_a_hanging_sleeper_is_a_good_wheel() {
     }
     assert!(alarms.is_empty(), "good wheels called flats: {alarms:?}");
 }
+
+#[test]
+fn the_site_page_shows_the_family_its_calibration_and_the_newest_nightly_check() {
+    use crate::serve::{get, json};
+    let (dir, cal) = hanging_family();
+    // Two nightly reports in the bank folder, as scripts/regenerate-nightly.sh names them;
+    // the newer one found a drift (a broken one a run before may have left removed first).
+    let _ = std::fs::remove_file(dir.join("calibration-2026-11-28.json"));
+    std::fs::write(dir.join("calibration-2026-11-26.json"), r#"{"check": []}"#).unwrap();
+    std::fs::write(
+        dir.join("calibration-2026-11-27.json"),
+        r#"{"check": [{"what": "support factor", "was": 1.0, "now": [0.93, 0.92, 0.94]}]}"#,
+    )
+    .unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let db = tmp.path().join("results.sqlite");
+    let f = tmp.path().join("good.csv");
+    let syn = synthesize_pass(&at_load(cal, 0.8), None, 1, true, FieldNoise::TABLE).unwrap();
+    std::fs::write(&f, format!("# bogie_id = S1\n{}", syn.csv)).unwrap();
+    let out = wheelflat()
+        .args(["identify", "--bank"])
+        .arg(dir)
+        .arg("--measured")
+        .arg(&f)
+        .arg("--out")
+        .arg(tmp.path().join("o"))
+        .arg("--db")
+        .arg(&db)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let app = wheelflat::serve::router(wheelflat::serve::Settings {
+        db,
+        bank: Some(dir.clone()),
+        limits_l0_mm: [25.0, 40.0],
+        limits_dynamic_ratio: [2.0, 3.0],
+        phi: 0.95,
+        token: None,
+    })
+    .unwrap();
+    let site = json(&app, "/api/site");
+    let setup = &site["setup"];
+    assert_eq!(setup["members"].as_array().unwrap().len(), 3, "{setup}");
+    assert_eq!(setup["voids"][0][1], 1.0, "{setup}");
+    assert_eq!(setup["last_check"]["file"], "calibration-2026-11-27.json");
+    assert_eq!(setup["last_check"]["drifted"][0]["what"], "support factor");
+    let (_, _, page) = get(&app, "/", &[]);
+    assert!(
+        page.contains("Site calibration")
+            && page.contains("× 1.40 car body")
+            && page.contains("drifted: ")
+            && page.contains("support factor was 1.000, now 0.930 [0.920, 0.940]"),
+        "{page}"
+    );
+    // A report that is not one is named, not trusted.
+    std::fs::write(dir.join("calibration-2026-11-28.json"), "{ not json").unwrap();
+    let site = json(&app, "/api/site");
+    let check = &site["setup"]["last_check"];
+    assert!(
+        check["unreadable"]
+            .as_str()
+            .unwrap()
+            .starts_with("not a report"),
+        "{check}"
+    );
+    std::fs::remove_file(dir.join("calibration-2026-11-28.json")).unwrap();
+}

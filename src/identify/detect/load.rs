@@ -317,52 +317,6 @@ impl crate::identify::identifier::Identifier {
         }
     }
 
-    /// On a family over loads, when the good wheel at the read load departs from the record
-    /// somewhere ([`crate::identify::detect`]), the load inside its interval whose good wheel
-    /// departs least (the largest excess over the sensors, `bounds` and comparison `c` as
-    /// detection judges): a hanging sleeper's pad changes shape with the load faster than the
-    /// level read pins it. Steps of 0.5 % over the interval; the read load kept when it is
-    /// quiet, when no load in the interval makes the whole pass quiet, or on one bank. The search moves one smooth prediction
-    /// the sensors share, as their gains do; a strike is sharp and stays.
-    pub(in crate::identify) fn load_by_shape(
-        &self,
-        axes: &[usize],
-        recorded: &[MeasuredSeries],
-        load: LoadEstimate,
-        bounds: crate::identify::domain::table_bounds::TableBounds,
-        c: crate::identify::input::compare::Comparison,
-    ) -> LoadEstimate {
-        let (Some(shapes), Some(_)) = (&self.load_shapes, load.between_members_kn) else {
-            return load;
-        };
-        let worst = |l: &LoadEstimate| -> f64 {
-            let mut at = recorded.to_vec();
-            self.at_bank_load(axes, &mut at, l);
-            let d = self.detect(axes, &c.series(&at), bounds, c);
-            d.worst().map_or(f64::NEG_INFINITY, |w| w.excess_kn)
-        };
-        let read = worst(&load);
-        if read <= 0.0 {
-            return load;
-        }
-        let mut best = (read, load.wheel_load_kn);
-        let [lo, hi] = load.interval_kn;
-        let steps = ((hi / lo).ln() / 1.005f64.ln()).ceil().clamp(1.0, 200.0) as usize;
-        for k in 0..=steps {
-            let l = lo * (hi / lo).powf(k as f64 / steps as f64);
-            let e = worst(&self.load_at(&load, shapes, l));
-            if e < best.0 {
-                best = (e, l);
-            }
-        }
-        // Only a load at which the whole pass is a good wheel is taken; else (a flat) the
-        // load stays as read, so that the search never moves a flat's load to hide its strike.
-        match best.0 <= 0.0 {
-            true => self.load_at(&load, shapes, best.1),
-            false => load,
-        }
-    }
-
     /// `load` moved to `l` kN (its interval, level and sensors kept; the members around `l`).
     fn load_at(&self, load: &LoadEstimate, shapes: &LoadShapes, l: f64) -> LoadEstimate {
         let v = &self.bank.metadata().calibration.vehicle;
