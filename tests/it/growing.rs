@@ -3,12 +3,12 @@
 //! answer and the site page's trend (`serve`'s wheel JSON and figure) are read back.
 //! CI-sized: the narrow profile widened to the sizes the wheel goes through, 4,000 instances.
 
-use crate::common::{cached_bank, wheelflat, CachedBank};
+use crate::common::{cached_bank, identify_into_db, serve_settings, wheelflat, CachedBank};
 use crate::serve::{get, json};
 use axum::http::StatusCode;
 use wheelflat::identify::synth::synthesize;
 use wheelflat::model::{Calibration, Flat};
-use wheelflat::serve::{router, Settings};
+use wheelflat::serve::router;
 
 /// The narrow profile over depths 0.1–0.75 mm (L0 18–49 mm), lengths 10–100 mm.
 fn bank() -> &'static CachedBank {
@@ -64,22 +64,7 @@ fn a_flat_growing_from_20_to_45_mm_over_ten_passes_is_seen_growing() {
         let csv = synthesize(cal, flat, 600 + k as u64, true).unwrap().csv;
         let f = dir.path().join(format!("p{k}.csv"));
         std::fs::write(&f, format!("# bogie_id = W1\n{csv}")).unwrap();
-        let out = wheelflat()
-            .args(["identify", "--bank"])
-            .arg(bank_dir)
-            .arg("--measured")
-            .arg(&f)
-            .arg("--out")
-            .arg(dir.path().join(format!("o{k}")))
-            .arg("--db")
-            .arg(&db)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        identify_into_db(bank_dir, &f, &dir.path().join(format!("o{k}")), &db);
     }
     let wheel = format!("W1/{}", cal.vehicle.flat_wheel.name());
     let out = dir.path().join("h");
@@ -123,15 +108,7 @@ fn a_flat_growing_from_20_to_45_mm_over_ten_passes_is_seen_growing() {
     );
 
     // The site page's trend shows the same passes and joint answer, and draws them.
-    let app = router(Settings {
-        db: db.clone(),
-        bank: Some(bank_dir.clone()),
-        limits_l0_mm: [25.0, 40.0],
-        limits_dynamic_ratio: [2.0, 3.0],
-        phi: 0.95,
-        token: None,
-    })
-    .unwrap();
+    let app = router(serve_settings(&db, bank_dir)).unwrap();
     let w = json(
         &app,
         &format!("/api/wheel?id={}&last=10", wheel.replace('/', "%2F")),

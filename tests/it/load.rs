@@ -2,7 +2,7 @@
 //! whose member nearest that load identifies the pass (docs/bank.md "Bank families: every
 //! load"). CI-sized: the narrow calibration at 50 km/h, 2,000 instances a member.
 
-use crate::common::{narrow_calibration, options, wheelflat};
+use crate::common::{identify_into_db, narrow_calibration, options, serve_settings, wheelflat};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use wheelflat::bank::family::{read_family_manifest, SpeedBand};
@@ -276,31 +276,8 @@ fn the_site_page_shows_the_family_its_calibration_and_the_newest_nightly_check()
     let f = tmp.path().join("good.csv");
     let syn = synthesize_pass(&at_load(cal, 0.8), None, 1, true, FieldNoise::TABLE).unwrap();
     std::fs::write(&f, format!("# bogie_id = S1\n{}", syn.csv)).unwrap();
-    let out = wheelflat()
-        .args(["identify", "--bank"])
-        .arg(dir)
-        .arg("--measured")
-        .arg(&f)
-        .arg("--out")
-        .arg(tmp.path().join("o"))
-        .arg("--db")
-        .arg(&db)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let app = wheelflat::serve::router(wheelflat::serve::Settings {
-        db,
-        bank: Some(dir.clone()),
-        limits_l0_mm: [25.0, 40.0],
-        limits_dynamic_ratio: [2.0, 3.0],
-        phi: 0.95,
-        token: None,
-    })
-    .unwrap();
+    identify_into_db(dir, &f, &tmp.path().join("o"), &db);
+    let app = wheelflat::serve::router(serve_settings(&db, dir)).unwrap();
     let site = json(&app, "/api/site");
     let setup = &site["setup"];
     assert_eq!(setup["members"].as_array().unwrap().len(), 3, "{setup}");

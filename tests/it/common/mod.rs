@@ -19,6 +19,34 @@ pub fn wheelflat() -> Command {
     Command::new(wheelflat_path())
 }
 
+/// `wheelflat identify --bank BANK --measured MEASURED --out OUT --db DB`, which must succeed.
+pub fn identify_into_db(bank: &Path, measured: &Path, out: &Path, db: &Path) {
+    let o = wheelflat()
+        .args(["identify", "--bank"])
+        .arg(bank)
+        .arg("--measured")
+        .arg(measured)
+        .arg("--out")
+        .arg(out)
+        .arg("--db")
+        .arg(db)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// `serve`'s settings for `db` and the site's bank `bank`, at the default class limits.
+pub fn serve_settings(db: &Path, bank: &Path) -> wheelflat::serve::Settings {
+    wheelflat::serve::Settings {
+        db: db.to_path_buf(),
+        bank: Some(bank.to_path_buf()),
+        limits_l0_mm: [25.0, 40.0],
+        limits_dynamic_ratio: [2.0, 3.0],
+        phi: 0.95,
+        token: None,
+    }
+}
+
 /// The paper's calibration ([`Calibration::paper_profile`]) with `window_samples`-sample
 /// windows per sensor: short windows keep banks small and fast to build.
 pub fn small_calibration(window_samples: usize) -> Calibration {
