@@ -180,6 +180,7 @@ fn a_calibrated_site_finds_its_track_and_quiets_most_of_its_good_wheels() {
 }
 
 #[test]
+#[ignore = "acceptance: a second 60-pass calibration of the CI site, every error drawn afresh"]
 fn a_site_whose_errors_are_drawn_afresh_each_pass_is_not_narrowed() {
     let (kept, fresh) = (calibrated(false), calibrated(true));
     println!(
@@ -406,6 +407,7 @@ fn passes_of_known_load_give_absolute_gains_and_the_load_read_follows() {
 /// of forty, 40–60 mm) would pull the track's fit. Each is set aside, named, after the first
 /// fit, and the site found as without them.
 #[test]
+#[ignore = "acceptance: two calibrations of the CI site with a flat among its good wheels"]
 fn a_flat_among_the_good_wheels_is_set_aside_and_the_site_found_as_without_it() {
     let cal = start();
     let axes = sensor_axes(&cal);

@@ -80,6 +80,7 @@ fn every_corruption_is_reported_by_verify_and_never_changes_an_answer() {
 
 /// A compressed bank has no layout, so no per-chunk checksums: it is hashed whole at open.
 #[test]
+#[ignore = "acceptance: every corruption again on a compressed bank"]
 fn a_compressed_bank_too() {
     let zstd = wheelflat::bank::GenerateOptions {
         format: wheelflat::bank::StorageFormat {

@@ -373,6 +373,7 @@ fn landing_bank() -> &'static CachedBank {
 /// (`discretisation_fraction` 0, today's thresholds before it) the same cases fall below that
 /// (measured and stated in the docs, not asserted: the test is of the allowance).
 #[test]
+#[ignore = "acceptance: converged passes where flats land, a coverage study"]
 fn coverage_survives_the_converged_reference_where_flats_land() {
     let (dir, cal) = landing_bank();
     let id = Identifier::new(Bank::open(dir).unwrap(), cal.identification.clone()).unwrap();

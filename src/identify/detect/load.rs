@@ -59,6 +59,13 @@ impl LoadEstimate {
 
     /// How the record was put on the bank's load, in words.
     pub fn adjustment_words(&self) -> String {
+        if self.between_members_kn.is_some() {
+            let r = self.bank_wheel_load_kn / self.wheel_load_kn;
+            return match r < 1.0 {
+                true => format!("the record scaled by {r:.3} and its static part put on the bank's load with the members' shapes"),
+                false => "the record's static part put on the bank's load with the members' shapes (impacts as recorded)".into(),
+            };
+        }
         match Adjustment::of(self) {
             Adjustment::Scale(r) => format!("the record scaled by {r:.3} to the bank's load"),
             Adjustment::AddStatic(e) if e.abs() < 5e-4 => "the record at the bank's load".into(),
