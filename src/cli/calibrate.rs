@@ -102,7 +102,7 @@ pub(super) fn run(a: &CalibrateArgs) -> Result<i32> {
         bootstrap: a.bootstrap as usize,
         seed: cal.identification.seed,
     };
-    let c =
+    let mut c =
         site::calibrate(&cal, &read.passes, &opts).map_err(|e| anyhow::anyhow!("{source}: {e}"))?;
     print!("{}", words(&c));
     println!(
@@ -113,7 +113,6 @@ pub(super) fn run(a: &CalibrateArgs) -> Result<i32> {
         c.simulations,
         clock.elapsed().as_secs_f64()
     );
-    let mut c = c;
     if a.check {
         let (_, start) = site::fit::TrackFit::new(&cal);
         c.check = Some(drift::drifted(&c, &start[1..]));

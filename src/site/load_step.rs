@@ -73,11 +73,11 @@ pub fn measure(
     let factors: Vec<f64> = (0..=n)
         .map(|k| BAND[0] + REFERENCE_STEP * k as f64)
         .collect();
-    // The relative wheel load of a car-body factor: ((m_c·f + m_b)/2 + m_w)·g over the base's.
+    // The relative wheel load of a car-body factor, over the base's.
     let relative = |f: f64| {
-        ((vehicle.car_body_mass_kg * f + vehicle.bogie_mass_kg) / 2.0 + vehicle.wheel_mass_kg)
-            * vehicle.gravity_m_per_s2
-            / track.wheel_load_n()
+        let mut v = vehicle.clone();
+        v.car_body_mass_kg *= f;
+        v.static_wheel_load_n() / track.wheel_load_n()
     };
     let loads: Vec<f64> = factors.iter().map(|&f| relative(f)).collect();
     let responses = loads

@@ -14,7 +14,7 @@
 //! level alone is ±15 % (95 %), two sensors' ±11 %, five sensors' ±7 %: the record cannot tell
 //! the load better than the model's level is known, and the interval says so.
 
-use crate::identify::detect::Detection;
+use crate::identify::detect::{loaded_level, Detection};
 use crate::identify::domain::load_shapes::LoadShapes;
 use crate::identify::domain::uncertainty::draw_sources;
 use crate::identify::input::measurement::MeasuredSeries;
@@ -165,12 +165,10 @@ pub(crate) fn estimate(
     let mean_level = levels.iter().sum::<f64>() / levels.len() as f64;
     let shown_kn = mean_level * bank_wheel_load_kn;
     let wheel_load_kn = shown_kn / mean;
-    let g = vehicle.gravity_m_per_s2;
     Some(LoadEstimate {
         wheel_load_kn,
         interval_kn: [shown_kn / spread[1], shown_kn / spread[0]],
-        car_body_mass_kg: 2.0 * (wheel_load_kn * 1e3 / g - vehicle.wheel_mass_kg)
-            - vehicle.bogie_mass_kg,
+        car_body_mass_kg: car_body_mass_kg(vehicle, wheel_load_kn),
         bank_wheel_load_kn,
         mean_level,
         sensors: levels.len(),
@@ -178,18 +176,12 @@ pub(crate) fn estimate(
     })
 }
 
-/// The level of `y` over `g` by least squares over the loaded samples (`g` at least a quarter
-/// of its peak and 2 kN), as the detection step fits it ([`crate::identify::detect::test_sensor`]);
-/// `None` without loaded samples.
-fn level_over(y: &[f64], g: &[f64]) -> Option<f64> {
-    let peak = g.iter().fold(0.0f64, |m, &x| m.max(x.abs()));
-    let floor = (0.25 * peak).max(2.0);
-    let (yg, gg) = y
-        .iter()
-        .zip(g)
-        .filter(|(_, &g)| g.abs() >= floor)
-        .fold((0.0, 0.0), |(a, b), (&y, &g)| (a + y * g, b + g * g));
-    (gg > 0.0 && (yg / gg).is_finite()).then_some(yg / gg)
+/// The car-body mass (kg) that gives the static wheel load `wheel_load_kn` with `vehicle`'s
+/// other masses (the quarter car of docs/model.md §3; [`VehicleParams::static_wheel_load_n`]
+/// inverted).
+fn car_body_mass_kg(vehicle: &VehicleParams, wheel_load_kn: f64) -> f64 {
+    2.0 * (wheel_load_kn * 1e3 / vehicle.gravity_m_per_s2 - vehicle.wheel_mass_kg)
+        - vehicle.bogie_mass_kg
 }
 
 /// The load `L` at which the record's mean level over the members' prediction at `L` is the
@@ -208,7 +200,7 @@ fn read_with_shapes(
         let levels: Vec<f64> = axes
             .iter()
             .zip(series)
-            .filter_map(|(&a, y)| level_over(y, &shapes.at(a, l)))
+            .filter_map(|(&a, y)| loaded_level(y, &shapes.at(a, l)).0)
             .filter(|a| *a > 0.0)
             .collect();
         (!levels.is_empty()).then(|| levels.iter().sum::<f64>() / levels.len() as f64 - mean)
@@ -295,7 +287,7 @@ impl crate::identify::identifier::Identifier {
             let mean = mean_level_factor(&self.settings);
             for (s, &axis) in series.iter_mut().zip(axes) {
                 let at_load = shapes.at(axis, load.wheel_load_kn);
-                let level = level_over(&s.values_kn, &at_load).unwrap_or(mean);
+                let level = loaded_level(&s.values_kn, &at_load).0.unwrap_or(mean);
                 let bank = &meta.flat_free_kn[axis];
                 for ((y, &gl), &gk) in s.values_kn.iter_mut().zip(&at_load).zip(bank) {
                     let gk = f64::from(gk);
@@ -321,20 +313,6 @@ impl crate::identify::identifier::Identifier {
                     }
                 }
             }
-        }
-    }
-
-    /// `load` moved to `l` kN (its interval, level and sensors kept; the members around `l`).
-    fn load_at(&self, load: &LoadEstimate, shapes: &LoadShapes, l: f64) -> LoadEstimate {
-        let v = &self.bank.metadata().calibration.vehicle;
-        let loads = shapes.loads_kn();
-        let hi = loads.partition_point(|&x| x < l).clamp(1, loads.len() - 1);
-        LoadEstimate {
-            wheel_load_kn: l,
-            car_body_mass_kg: 2.0 * (l * 1e3 / v.gravity_m_per_s2 - v.wheel_mass_kg)
-                - v.bogie_mass_kg,
-            between_members_kn: Some([loads[hi - 1], loads[hi]]),
-            ..load.clone()
         }
     }
 
@@ -369,10 +347,14 @@ impl crate::identify::identifier::Identifier {
         let Some(l) = read_with_shapes(shapes, axes, &ys, factor.0, linear.wheel_load_kn) else {
             return Some(linear);
         };
-        let shown_kn = l * factor.0;
+        let (shown_kn, loads) = (l * factor.0, shapes.loads_kn());
+        let hi = loads.partition_point(|&x| x < l).clamp(1, loads.len() - 1);
         Some(LoadEstimate {
+            wheel_load_kn: l,
             interval_kn: [shown_kn / factor.1[1], shown_kn / factor.1[0]],
-            ..self.load_at(&linear, shapes, l)
+            car_body_mass_kg: car_body_mass_kg(&cal.vehicle, l),
+            between_members_kn: Some([loads[hi - 1], loads[hi]]),
+            ..linear
         })
     }
 }

@@ -173,6 +173,25 @@ impl Detection {
     }
 }
 
+/// The level of `y` over the prediction `g` (same samples) by least squares over the loaded
+/// samples, `a = Σ y·g / Σ g²` where `|g|` is at least a quarter of its peak and 2 kN, and how
+/// many samples were loaded; the level is `None` when none were (or it is not finite). What
+/// detection fits each sensor's gain with, and what the load is read from.
+pub(crate) fn loaded_level<G: Copy + Into<f64>>(y: &[f64], g: &[G]) -> (Option<f64>, usize) {
+    let peak = g.iter().fold(0.0f64, |m, &x| m.max(x.into().abs()));
+    let floor = (0.25 * peak).max(2.0);
+    let (yg, gg, n) = y
+        .iter()
+        .zip(g)
+        .map(|(&y, &g)| (y, g.into()))
+        .filter(|&(_, g)| g.abs() >= floor)
+        .fold((0.0, 0.0, 0), |(yg, gg, n), (y, g)| {
+            (yg + y * g, gg + g * g, n + 1)
+        });
+    let level = (gg > 0.0 && (yg / gg).is_finite()).then(|| yg / gg);
+    (level, n)
+}
+
 /// Tests one sensor's series `y` against the flat-free prediction `g` (same samples).
 #[cfg(test)]
 pub(crate) fn test_sensor(
@@ -191,24 +210,8 @@ fn test_sensor_with(
     extra_kn: &[f64],
 ) -> SensorTest {
     let y = &sensor.values_kn;
-    let peak = template_kn
-        .iter()
-        .fold(0.0f64, |m, &g| m.max(f64::from(g).abs()));
-    let floor = (0.25 * peak).max(2.0);
-    // Least squares over the loaded samples: a = Σ y·g / Σ g².
-    let (yg, gg, loaded_samples) = y
-        .iter()
-        .zip(template_kn)
-        .filter(|(_, &g)| f64::from(g).abs() >= floor)
-        .fold((0.0, 0.0, 0), |(yg, gg, n), (&y, &g)| {
-            let g = f64::from(g);
-            (yg + y * g, gg + g * g, n + 1)
-        });
-    let fitted = if gg > 0.0 && (yg / gg).is_finite() {
-        yg / gg
-    } else {
-        1.0
-    };
+    let (level, loaded_samples) = loaded_level(y, template_kn);
+    let fitted = level.unwrap_or(1.0);
     let gain = fitted.clamp(bounds.gain[0], bounds.gain[1]);
     let mut worst = (f64::NEG_INFINITY, 0usize, 0.0);
     let mut departure_kn = 0.0f64;
