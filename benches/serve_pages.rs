@@ -69,6 +69,7 @@ fn grow(seed_db: &Path, out: &Path, passes: usize, bogies: usize) {
                 bogie_id: None,
                 summary: d.row.summary.clone(),
                 result_dir: None,
+                answer_ms: None,
             },
             wheels: [d.wheels[0].wheel.clone(), d.wheels[1].wheel.clone()],
         };

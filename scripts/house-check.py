@@ -19,7 +19,7 @@ MAX_LINES = 600
 # The library's layers, top first (docs/architecture.md, "Layers").
 LAYERS = [
     ["serve"],
-    ["pass"],
+    ["pass", "alarm"],
     ["report"],
     ["diagnose"],
     ["audit", "train", "history", "site"],

@@ -14,6 +14,7 @@
 #![deny(clippy::float_cmp)]
 #![warn(unreachable_pub)]
 
+pub mod alarm;
 pub mod atomic;
 pub mod audit;
 pub mod bank;

@@ -94,6 +94,9 @@ pub(super) enum Command {
     /// answer of the newest passes (the flat must fit them all), its severity classes, and
     /// a trend figure; a wheel whose flat grew is reported as changed.
     History(super::history::HistoryArgs),
+    /// The alarms in a results database's outbox, pending, failed (retried) and sent; with
+    /// `--send --alarms F`, one delivery round first (docs/alarms.md).
+    Alarms(super::alarms::AlarmsArgs),
     /// A read-only web view of a results database for the people who watch a site: the wheels
     /// that need action first, every wheel, the passes of the last hours, a wheel's trend, a
     /// pass's report, each page with its JSON (on 127.0.0.1:8080 unless told otherwise).
@@ -386,6 +389,10 @@ pub(super) struct WatchArgs {
     /// Process what is in the inbox, then exit (for cron jobs and tests).
     #[arg(long)]
     pub once: bool,
+    /// Serve `/metrics` (the Prometheus text format, from the results database) on this
+    /// localhost address, e.g. `127.0.0.1:9187` (docs/alarms.md).
+    #[arg(long, requires = "db")]
+    pub metrics: Option<std::net::SocketAddr>,
     #[command(flatten)]
     pub refine: RefineArgs,
     #[command(flatten)]

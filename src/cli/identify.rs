@@ -12,11 +12,15 @@ use wheelflat::report::tables::{comparison_table, identification_text};
 /// Identifies; writes `identification.json` and prints the verdict before anything else, then
 /// with `--report` the figures and the HTML report.
 pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
-    // A database that cannot be opened is refused before any work.
-    let mut db = a.store.open()?;
-    let result = identify_pass(a, db.as_mut());
-    if let (Err(e), Some(db)) = (&result, db.as_mut()) {
+    // A database (or alarms configuration) that cannot be opened is refused before any work.
+    let mut store = a.store.open(a.input.calibration.as_deref())?;
+    let result = identify_pass(a, store.db.as_mut());
+    if let (Err(e), Some(db)) = (&result, store.db.as_mut()) {
         super::history::store_failure(db, &a.input.measured, e);
+    }
+    // The alarms this pass raised, sent now; those that fail wait in the outbox.
+    if let Err(e) = store.send_once(String::new) {
+        eprintln!("warning: {e:#}");
     }
     result
 }

@@ -6,8 +6,10 @@
 //! - [`progress`]: the progress bar or log lines of long jobs.
 //! - one file per command or group: [`calibration`], [`simulate`], [`bank`] (generate,
 //!   merge, info, verify, audit), [`synth`], [`identify`] (identify, report, compare),
-//!   [`watch`], [`train`], [`audit`], [`diagnose`], [`calibrate`], [`demo`], [`serve`].
+//!   [`watch`], [`train`], [`audit`], [`diagnose`], [`calibrate`], [`demo`], [`serve`],
+//!   [`alarms`].
 
+mod alarms;
 mod args;
 mod audit;
 mod bank;
@@ -96,6 +98,7 @@ pub fn main() -> ExitCode {
         },
         Command::Train(a) => train::run(&a),
         Command::History(a) => history::run(&a),
+        Command::Alarms(a) => alarms::run(&a),
         Command::Serve(a) => serve::run(&a),
         Command::Demo {
             out,

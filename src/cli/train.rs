@@ -34,10 +34,14 @@ pub(super) struct TrainArgs {
 /// Reads the recording and triggers, identifies every bogie, writes `train.csv`, `.json` and
 /// `.html` and prints the table.
 pub(super) fn run(a: &TrainArgs) -> Result<()> {
-    let mut db = a.store.open()?;
-    let result = train_pass_of(a, db.as_mut());
-    if let (Err(e), Some(db)) = (&result, db.as_mut()) {
+    let mut store = a.store.open(None)?;
+    let result = train_pass_of(a, store.db.as_mut());
+    if let (Err(e), Some(db)) = (&result, store.db.as_mut()) {
         super::history::store_failure(db, &a.recording, e);
+    }
+    // The alarms this pass raised, sent now; those that fail wait in the outbox.
+    if let Err(e) = store.send_once(String::new) {
+        eprintln!("warning: {e:#}");
     }
     result
 }

@@ -17,8 +17,15 @@
 //!   is opened between measurements, never during one. A bank that cannot be opened is logged
 //!   and the open one kept.
 //! - **Clean stop.** SIGTERM or SIGINT ends the loop after the measurement in progress.
+//! - **Alarms** (`--alarms`, docs/alarms.md): raised in each pass's transaction, posted by a
+//!   sender thread of their own (a receiver that hangs never holds a pass up); with `--once`
+//!   the sender finishes its round, and one more is made, before the exit. A test hook,
+//!   [`HOLD_ALARMS_ENV`], keeps every alarm in the outbox (the kill test's "between the
+//!   commit and the send").
+//! - **Metrics** (`--metrics ADDR`): `/metrics` from the results database, on a thread.
 
 use super::args::WatchArgs;
+use super::db_args::{outcome_line, Store};
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -27,6 +34,10 @@ use std::time::{Duration, Instant};
 use wheelflat::bank::family::Family;
 use wheelflat::history::Db;
 use wheelflat::identify::Members;
+
+/// Test hook: when set (to anything), `watch` sends no alarm — they wait in the outbox — so a
+/// test can kill it between a pass's commit and the send (docs/alarms.md, "Tests").
+pub(super) const HOLD_ALARMS_ENV: &str = "WHEELFLAT_TEST_HOLD_ALARMS";
 
 /// What marks a recording as a train pass: `NAME.csv` with `NAME` + this beside it.
 const TRIGGERS_SUFFIX: &str = ".triggers.csv";
@@ -232,8 +243,41 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
     let (done, failed) = (a.inbox.join("done"), a.inbox.join("failed"));
-    // The results database, opened once (refused before any pass when it is not one).
-    let mut db = a.store.open()?;
+    // The results database and the alarms' configuration, opened once (refused before any
+    // pass when either is wrong).
+    let Store { mut db, sender } = a.store.open(a.calibration.as_deref())?;
+    if let (Some(addr), Some(path)) = (a.metrics, &a.store.db) {
+        let cal = super::load_calibration(a.calibration.as_deref())?;
+        let settings = wheelflat::serve::Settings::new(
+            path.clone(),
+            Some(a.bank.clone()),
+            &cal.identification,
+            None,
+        );
+        let bound = wheelflat::serve::run_metrics(settings, addr)?;
+        println!("{} metrics at http://{bound}/metrics", stamp());
+    }
+    let hold = std::env::var_os(HOLD_ALARMS_ENV).is_some();
+    let alarms_on = sender.is_some();
+    let sender = sender.map(Arc::new).filter(|_| !hold);
+    let sender_stop = Arc::new(AtomicBool::new(false));
+    let sending = match (&sender, &a.store.db) {
+        (Some(s), Some(path)) => {
+            let (s, path, stop) = (Arc::clone(s), path.clone(), Arc::clone(&sender_stop));
+            let thread = std::thread::Builder::new()
+                .name("alarms".into())
+                .spawn(move || {
+                    s.run(
+                        &path,
+                        &stop,
+                        |o| println!("{} {}", stamp(), outcome_line(o)),
+                        |e| println!("{} alarms: {e}", stamp()),
+                    )
+                });
+            Some(thread.context("cannot start the alarms' sender")?)
+        }
+        _ => None,
+    };
     let mut current = open(a)?;
     println!(
         "{} watching {} with bank {} (poll {} ms)",
@@ -244,6 +288,13 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
     );
     let mut seen = 0usize;
     while !stop.load(Ordering::Relaxed) {
+        if let (true, Some(db)) = (alarms_on, db.as_mut()) {
+            match wheelflat::alarm::drift::raise_if_drifted(db, &a.bank) {
+                Ok(true) => println!("{} alarm raised: the nightly check found drift", stamp()),
+                Ok(false) => {}
+                Err(e) => println!("{} cannot raise the drift alarm: {e}", stamp()),
+            }
+        }
         let files = waiting(&a.inbox)?;
         if files.is_empty() {
             if a.once {
@@ -318,6 +369,21 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
                     println!("{} {name} FAILED {ms:.1} ms: {e:#}", stamp());
                 }
             }
+        }
+    }
+    // `--once`: the sender's round finished, then one more (a SIGTERM leaves what is unsent
+    // in the outbox for the next start: nothing is lost, and the stop is not held up).
+    if a.once {
+        sender_stop.store(true, Ordering::Relaxed);
+        if let Some(thread) = sending {
+            let _ = thread.join();
+        }
+        if !hold {
+            Store {
+                db,
+                sender: sender.and_then(|s| Arc::into_inner(s)),
+            }
+            .send_once(|| format!("{} ", stamp()))?;
         }
     }
     println!("{} stopping after {seen} measurements", stamp());

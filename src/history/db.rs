@@ -13,77 +13,24 @@
 //! - **Readers while a writer writes.** The write-ahead log lets `history` read while `watch`
 //!   writes; both wait up to [`BUSY_TIMEOUT_MS`] for a lock.
 
-use super::record::{boxes_to_bytes, PassRecord};
 pub use super::row::StoredPass;
 use super::row::{severity_range, RawRow};
+use super::rules::AlarmPlan;
+use super::schema::{SCHEMA, UPGRADE_1_TO_2, UPGRADE_2_TO_3};
 use crate::identify::SeverityRange;
-use rusqlite::{params, Connection, OpenFlags, OptionalExtension, TransactionBehavior};
+use rusqlite::{params, Connection, OpenFlags, TransactionBehavior};
 use std::path::{Path, PathBuf};
 
 /// `PRAGMA application_id` of a wheelflat results database: `WFLT`.
 pub(crate) const APPLICATION_ID: i32 = 0x5746_4C54;
-/// The schema this wheelflat writes and reads (2: the passes refused or failed, and where a
-/// pass's result was written; a version-1 file is upgraded when opened for writing, and read
-/// as it is when opened read-only).
-pub(crate) const SCHEMA_VERSION: i32 = 2;
+/// The schema this wheelflat writes and reads (3: the alarms' outbox and each pass's answer
+/// time; 2: the passes refused or failed, and where a pass's result was written). An older
+/// file is upgraded when opened for writing, and read as it is when opened read-only.
+pub(crate) const SCHEMA_VERSION: i32 = 3;
 /// How long a reader or writer waits for another's lock (ms).
 pub(crate) const BUSY_TIMEOUT_MS: u64 = 10_000;
 /// The most passes one query returns (a window larger than this is cut to the newest).
 pub(crate) const MAX_WINDOW_PASSES: usize = 1000;
-
-/// The tables of version 1 (a new database gets [`UPGRADE_1_TO_2`] after them).
-const SCHEMA: &str = "
-CREATE TABLE passes (
-    id INTEGER PRIMARY KEY,
-    key TEXT NOT NULL UNIQUE,
-    time TEXT NOT NULL,
-    time_s REAL NOT NULL,
-    measurement TEXT NOT NULL,
-    bank_id TEXT NOT NULL,
-    speed_km_per_h REAL,
-    bank_speed_km_per_h REAL NOT NULL,
-    load_kn REAL,
-    bogie_id TEXT,
-    summary TEXT NOT NULL
-);
-CREATE TABLE wheel_passes (
-    pass_id INTEGER NOT NULL REFERENCES passes(id) ON DELETE CASCADE,
-    wheel TEXT NOT NULL CHECK (wheel IN ('leading', 'trailing')),
-    wheel_id TEXT,
-    claim TEXT NOT NULL,
-    l0_min_mm REAL,
-    l0_max_mm REAL,
-    severity_lowest TEXT,
-    severity_highest TEXT,
-    limit_l0_mm REAL,
-    space TEXT NOT NULL,
-    cells INTEGER NOT NULL,
-    boxes BLOB NOT NULL,
-    PRIMARY KEY (pass_id, wheel)
-);
-CREATE INDEX wheel_passes_by_wheel ON wheel_passes(wheel_id, pass_id);
-CREATE INDEX passes_by_time ON passes(time_s);
-";
-
-/// What version 1 lacks: where each pass's result was written, the passes refused or failed. A
-/// new database is made as version 1 ([`SCHEMA`]) and upgraded at once, in one transaction:
-/// one text of each table.
-const UPGRADE_1_TO_2: &str = "
-ALTER TABLE passes ADD COLUMN result_dir TEXT;
-ALTER TABLE wheel_passes ADD COLUMN dynamic_ratio_min REAL;
-ALTER TABLE wheel_passes ADD COLUMN dynamic_ratio_max REAL;
-CREATE TABLE failures (
-    id INTEGER PRIMARY KEY,
-    time TEXT NOT NULL,
-    time_s REAL NOT NULL,
-    measurement TEXT NOT NULL,
-    bogie_id TEXT,
-    outcome TEXT NOT NULL CHECK (outcome IN ('refused', 'failed')),
-    reason TEXT NOT NULL
-);
-CREATE INDEX failures_by_time ON failures(time_s);
-PRAGMA user_version = 2;
-";
 
 /// What can go wrong with the database, naming the file.
 #[derive(Debug, thiserror::Error)]
@@ -159,8 +106,12 @@ pub struct Window {
 pub struct Db {
     pub(super) conn: Connection,
     path: PathBuf,
-    /// The file's schema version: [`SCHEMA_VERSION`], or 1 for an old file opened read-only.
+    /// The file's schema version: [`SCHEMA_VERSION`], or older for an old file opened
+    /// read-only.
     pub(super) version: i32,
+    /// The alarms raised in the transaction of each pass or refusal stored, when set
+    /// ([`Db::raise_alarms`]).
+    pub(super) alarms: Option<AlarmPlan>,
 }
 
 /// How [`Db::open_with`] opens the file.
@@ -186,8 +137,9 @@ impl Db {
         Db::open_with(path, Mode::Existing)
     }
 
-    /// Opens an existing database read-only (`serve`): SQLite refuses every write on it, and a
-    /// version-1 file is read as it is (no failures, no result folders).
+    /// Opens an existing database read-only (`serve`): SQLite refuses every write on it, and an
+    /// older file is read as it is (version 1: no failures, no result folders; version 2: no
+    /// alarms, no answer times).
     pub fn open_read_only(path: &Path) -> Result<Db, DbError> {
         Db::open_with(path, Mode::ReadOnly)
     }
@@ -262,7 +214,7 @@ impl Db {
                 .map_err(sql)?;
             if tables == 0 {
                 tx.execute_batch(&format!(
-                    "{SCHEMA} {UPGRADE_1_TO_2} PRAGMA application_id = {APPLICATION_ID}; PRAGMA user_version = {SCHEMA_VERSION};"
+                    "{SCHEMA} {UPGRADE_1_TO_2} {UPGRADE_2_TO_3} PRAGMA application_id = {APPLICATION_ID}; PRAGMA user_version = {SCHEMA_VERSION};"
                 ))
                 .map_err(sql)?;
             }
@@ -277,9 +229,9 @@ impl Db {
                 path: path.to_path_buf(),
                 found: version,
             });
-        } else if version == 1 && mode == Mode::ReadOnly {
-            return Db::finish(conn, path, 1);
-        } else if version == 1 {
+        } else if (1..SCHEMA_VERSION).contains(&version) && mode == Mode::ReadOnly {
+            return Db::finish(conn, path, version);
+        } else if (1..SCHEMA_VERSION).contains(&version) {
             // Upgraded in one transaction: a second process upgrading at once finds the new
             // version inside its own and leaves it.
             let mut conn = conn;
@@ -291,6 +243,9 @@ impl Db {
                 .map_err(sql)?;
             if now == 1 {
                 tx.execute_batch(UPGRADE_1_TO_2).map_err(sql)?;
+            }
+            if now == 1 || now == 2 {
+                tx.execute_batch(UPGRADE_2_TO_3).map_err(sql)?;
             }
             tx.commit().map_err(sql)?;
             return Db::finish(conn, path, SCHEMA_VERSION);
@@ -320,6 +275,7 @@ impl Db {
             conn,
             path: path.to_path_buf(),
             version,
+            alarms: None,
         })
     }
 
@@ -335,74 +291,15 @@ impl Db {
         }
     }
 
-    /// Stores a pass and its two wheels in one transaction. `Ok(false)`: the pass was stored
-    /// before (same key), nothing written.
-    pub fn insert(&mut self, rec: &PassRecord) -> Result<bool, DbError> {
-        let path = self.path.clone();
-        let sql = |source| DbError::Sqlite {
-            path: path.clone(),
-            source,
-        };
-        let tx = self
-            .conn
-            .transaction_with_behavior(TransactionBehavior::Immediate)
-            .map_err(sql)?;
-        let known: Option<i64> = tx
-            .query_row(
-                "SELECT id FROM passes WHERE key = ?1",
-                [&rec.meta.key],
-                |r| r.get(0),
-            )
-            .optional()
-            .map_err(sql)?;
-        if known.is_some() {
-            return Ok(false);
-        }
-        let m = &rec.meta;
-        let time = rfc3339(m.time_s);
-        tx.execute(
-            "INSERT INTO passes (key, time, time_s, measurement, bank_id, speed_km_per_h, bank_speed_km_per_h, load_kn, bogie_id, summary, result_dir) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11)",
-            params![
-                m.key,
-                time,
-                m.time_s,
-                m.measurement,
-                m.bank_id,
-                m.speed_km_per_h,
-                m.bank_speed_km_per_h,
-                m.load_kn,
-                m.bogie_id,
-                m.summary,
-                m.result_dir
-            ],
-        )
-        .map_err(sql)?;
-        let pass_id = tx.last_insert_rowid();
-        for w in &rec.wheels {
-            let space = serde_json::to_string(&w.space).expect("a space serialises");
-            tx.execute(
-                "INSERT INTO wheel_passes (pass_id, wheel, wheel_id, claim, l0_min_mm, l0_max_mm, severity_lowest, severity_highest, limit_l0_mm, space, cells, boxes, dynamic_ratio_min, dynamic_ratio_max) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14)",
-                params![
-                    pass_id,
-                    w.wheel.name(),
-                    m.bogie_id.as_ref().map(|b| format!("{b}/{}", w.wheel.name())),
-                    w.claim.as_str(),
-                    w.l0_mm.map(|r| r[0]),
-                    w.l0_mm.map(|r| r[1]),
-                    w.severity.map(|s| s.lowest.as_str()),
-                    w.severity.map(|s| s.highest.as_str()),
-                    w.limit_l0_mm,
-                    space,
-                    w.boxes.len() as i64,
-                    boxes_to_bytes(&w.boxes),
-                    w.dynamic_ratio.map(|r| r[0]),
-                    w.dynamic_ratio.map(|r| r[1])
-                ],
-            )
-            .map_err(sql)?;
-        }
-        tx.commit().map_err(sql)?;
-        Ok(true)
+    /// The file's schema version (older than [`SCHEMA_VERSION`] only when opened read-only).
+    pub fn schema_version(&self) -> i32 {
+        self.version
+    }
+
+    /// From now on, raise `plan`'s alarms in the transaction of each pass (`Db::insert`) and
+    /// refusal (`Db::insert_failure`) stored: into the outbox, one row a destination.
+    pub fn raise_alarms(&mut self, plan: AlarmPlan) {
+        self.alarms = Some(plan);
     }
 
     /// Passes stored (all wheels, named or not).

@@ -69,34 +69,7 @@ impl Failure {
     }
 }
 
-/// The longest reason stored (characters; a longer one is cut, saying so).
-pub(crate) const MAX_REASON_CHARS: usize = 4000;
-
 impl Db {
-    /// Stores a pass that gave no answer.
-    pub fn insert_failure(&mut self, f: &Failure) -> Result<(), DbError> {
-        let reason: String = if f.reason.chars().count() > MAX_REASON_CHARS {
-            let cut: String = f.reason.chars().take(MAX_REASON_CHARS).collect();
-            format!("{cut} … (cut at {MAX_REASON_CHARS} characters)")
-        } else {
-            f.reason.clone()
-        };
-        self.conn
-            .execute(
-                "INSERT INTO failures (time, time_s, measurement, bogie_id, outcome, reason) VALUES (?1, ?2, ?3, ?4, ?5, ?6)",
-                params![
-                    rfc3339(f.time_s),
-                    f.time_s,
-                    f.measurement,
-                    f.bogie_id,
-                    f.kind.as_str(),
-                    reason
-                ],
-            )
-            .map_err(|e| self.sql(e))?;
-        Ok(())
-    }
-
     /// The passes that gave no answer since `since_s` (Unix seconds), newest first, at most
     /// `limit` (none in a version-1 file, which did not keep them).
     pub fn failures_since(&self, since_s: f64, limit: usize) -> Result<Vec<Failure>, DbError> {

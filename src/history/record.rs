@@ -151,6 +151,7 @@ impl PassRecord {
             bogie_id: bogie_id.map(str::to_string),
             summary: id.summary.clone(),
             result_dir: None,
+            answer_ms: None,
         };
         let detection = id.detection.as_ref();
         PassRecord::of_parts(meta, detection, Some(id), identifier)
@@ -202,6 +203,9 @@ pub struct PassMeta {
     /// The folder its result was written into (`identification.json`, the report), when
     /// one was.
     pub result_dir: Option<String>,
+    /// How long the answer took (ms): from the measurement read to its result written
+    /// (a train's: the whole train's, on each bogie), when timed.
+    pub answer_ms: Option<f64>,
 }
 
 /// What a pass says of `wheel`: from its detection step and, when it detected a flat, the

@@ -25,7 +25,8 @@ pub fn refine_into(
 }
 
 /// The record of one identified measurement in the results database (keyed by the SHA-256 of
-/// `file`; its result written into `result_dir`), stored; whether it is new.
+/// `file`; its result written into `result_dir`; its answer took `answer_ms`), stored;
+/// whether it is new.
 pub fn store_measurement(
     db: &mut Db,
     id: &Identification,
@@ -33,8 +34,10 @@ pub fn store_measurement(
     m: &Measurement,
     file: &Path,
     result_dir: &Path,
+    answer_ms: Option<f64>,
 ) -> Result<bool, PassError> {
-    let rec = record(id, identifier, m, file, result_dir)?;
+    let mut rec = record(id, identifier, m, file, result_dir)?;
+    rec.meta.answer_ms = answer_ms;
     store::store(db, &rec)
 }
 
@@ -88,7 +91,8 @@ pub struct Request<'a> {
 
 /// One measurement's pass against `identifier`: identified, refined when asked,
 /// `identification.json` written into the request's folder, then stored in `db` (keyed by the
-/// SHA-256 of `file`) — a pass is stored only once its result is written.
+/// SHA-256 of `file`, with how long it took from here to its result written) — a pass is
+/// stored only once its result is written.
 pub fn identify_measurement(
     identifier: &Identifier,
     measurement: Measurement,
@@ -96,6 +100,7 @@ pub fn identify_measurement(
     request: Request,
     db: Option<&mut Db>,
 ) -> Result<Pass, PassError> {
+    let started = std::time::Instant::now();
     let mut id = identifier.identify(&measurement, request.sensors, request.extras)?;
     if let Some(simulations) = request.refine_simulations {
         refine_into(identifier, &mut id, simulations)?;
@@ -114,6 +119,7 @@ pub fn identify_measurement(
             &measurement,
             file,
             request.out,
+            Some(started.elapsed().as_secs_f64() * 1e3),
         )?),
         None => None,
     };

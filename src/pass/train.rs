@@ -17,6 +17,8 @@ pub struct TrainPass {
     pub result: TrainResult,
     /// Per bogie, the member of the family (index) it was compared with.
     pub members: Vec<usize>,
+    /// How long the train's identification took (ms), stored with each bogie's pass.
+    pub answer_ms: f64,
 }
 
 /// One train pass, a recording and its trigger file, against a bank or a bank family: each
@@ -31,6 +33,7 @@ pub fn identify_train(
     consist: Option<&Path>,
     refine_simulations: Option<usize>,
 ) -> Result<TrainPass, PassError> {
+    let started = std::time::Instant::now();
     let rate = members.family().sample_rate_hz;
     let text = read_text(recording, MAX_MEASUREMENT_BYTES, "recording")?;
     let m = Measurement::from_csv(recording, &text, rate)?;
@@ -94,6 +97,7 @@ pub fn identify_train(
     Ok(TrainPass {
         result,
         members: picked,
+        answer_ms: started.elapsed().as_secs_f64() * 1e3,
     })
 }
 
@@ -136,6 +140,7 @@ pub fn store_train(
                 .as_ref()
                 .map_or_else(|| "No flat detected.".to_string(), |id| id.summary.clone()),
             result_dir: result_dir.map(|d| d.display().to_string()),
+            answer_ms: Some(pass.answer_ms),
         };
         let rec = PassRecord::of_parts(
             meta,

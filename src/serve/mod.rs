@@ -10,14 +10,19 @@
 //!   the site page's family, calibration and newest nightly check.
 //! - [`layout`]: the page around them, the class colours, the refresh without reloading.
 //! - [`drawn`]: a pass's report drawn on request when its command wrote only the JSON.
+//! - [`alarms`]: the alarms' counts and newest rows; [`metrics`]: `/metrics`, the Prometheus
+//!   text format (also served alone by `watch --metrics`: [`run_metrics`]).
 //!
 //! Reads run on the blocking pool under SQLite's write-ahead log: they never block a
 //! `watch --db` writing beside them, and every list a page shows is bounded.
 
 pub mod access;
+mod alarms;
+mod counts;
 mod drawn;
 mod error;
 mod layout;
+mod metrics;
 mod pass;
 mod routes;
 mod setup;
@@ -27,7 +32,7 @@ mod wheel;
 
 pub use access::{check_listen, Token};
 pub use error::ServeError;
-pub use routes::router;
+pub use routes::{metrics_router, router};
 pub use state::Settings;
 
 use std::net::SocketAddr;
@@ -80,4 +85,34 @@ async fn stopped() {
         _ = tokio::signal::ctrl_c() => {}
         _ = term => {}
     }
+}
+
+/// Serves `/metrics` (and `/health`) of `settings`' database on `listen` — a localhost
+/// address: this server has no token — on a thread of its own, for `watch --metrics`; the
+/// address bound, once listening. Runs until the process ends.
+pub fn run_metrics(settings: Settings, listen: SocketAddr) -> Result<SocketAddr, ServeError> {
+    check_listen(listen, false)?;
+    let app = metrics_router(settings)?;
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(ServeError::Runtime)?;
+    let listener = runtime
+        .block_on(tokio::net::TcpListener::bind(listen))
+        .map_err(|source| ServeError::Bind {
+            addr: listen,
+            source,
+        })?;
+    let bound = listener.local_addr().map_err(|source| ServeError::Bind {
+        addr: listen,
+        source,
+    })?;
+    std::thread::Builder::new()
+        .name("metrics".into())
+        .spawn(move || {
+            // The scrape's database work runs on this runtime's blocking pool.
+            let _ = runtime.block_on(async move { axum::serve(listener, app).await });
+        })
+        .map_err(ServeError::Runtime)?;
+    Ok(bound)
 }

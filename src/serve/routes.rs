@@ -5,13 +5,17 @@
 //! | `/` | `/api/site` | the site (`?bogie=&class=&hours=`) |
 //! | `/wheel?id=…` | `/api/wheel?id=…` | a wheel (`&last=&hours=&rule=`); its trend `/wheel/trend.svg?id=…` |
 //! | `/pass/<id>` | `/api/pass/<id>` | a pass; its record `/pass/<id>/record.json`, its files `/pass/<id>/files/<name>`, its drawn report `/pass/<id>/drawn/<name>` |
+//! | | `/api/alarms` | the alarms (`?status=&last=`) |
+//! | `/metrics` | | the Prometheus text format (docs/alarms.md) |
 //! | `/health` | | the database opens and answers |
 //!
 //! Only GET (and HEAD); a bad path or query is answered 4xx with the reason, a database that
 //! cannot be read 503.
 
+use super::alarms::{alarms_view, AlarmsQuery};
 use super::error::ServeError;
 use super::layout::respond;
+use super::metrics::metrics_text;
 use super::pass::{content_type, pass_html, pass_view, result_file, MAX_RESULT_FILE_BYTES};
 use super::site::{site_html, site_view, SiteQuery};
 use super::state::{AppState, Settings};
@@ -42,6 +46,8 @@ pub fn router(settings: Settings) -> Result<Router, ServeError> {
         .route("/pass/{id}/record.json", get(pass_record))
         .route("/pass/{id}/files/{name}", get(pass_file))
         .route("/pass/{id}/drawn/{name}", get(drawn_file))
+        .route("/api/alarms", get(alarms_json))
+        .route("/metrics", get(metrics))
         .route("/health", get(health))
         .fallback(not_found)
         .with_state(state)
@@ -49,6 +55,16 @@ pub fn router(settings: Settings) -> Result<Router, ServeError> {
             token,
             super::access::require_token,
         )))
+}
+
+/// `/metrics` and `/health` alone (`watch --metrics`), over `settings`' database.
+pub fn metrics_router(settings: Settings) -> Result<Router, ServeError> {
+    let state = AppState::new(settings)?;
+    Ok(Router::new()
+        .route("/metrics", get(metrics))
+        .route("/health", get(health))
+        .fallback(not_found)
+        .with_state(state))
 }
 
 /// Why a request gets no page.
@@ -246,6 +262,28 @@ async fn hand_out(state: Shared, id: &str, name: &str, drawn: bool) -> Result<Re
         )));
     }
     Ok(([(header::CONTENT_TYPE, content_type(name))], bytes).into_response())
+}
+
+async fn alarms_json(
+    State(state): State<Shared>,
+    q: Result<Query<AlarmsQuery>, axum::extract::rejection::QueryRejection>,
+) -> Result<Response, Refusal> {
+    let q = query(q)?;
+    let last = q.last().map_err(Refusal::BadQuery)?;
+    let v = blocking(move || state.read(|db| alarms_view(db, q.status, last))).await?;
+    Ok(Json(v).into_response())
+}
+
+async fn metrics(State(state): State<Shared>) -> Result<Response, Refusal> {
+    let text = blocking(move || metrics_text(&state)).await?;
+    Ok((
+        [(
+            header::CONTENT_TYPE,
+            "text/plain; version=0.0.4; charset=utf-8",
+        )],
+        text,
+    )
+        .into_response())
 }
 
 async fn health(State(state): State<Shared>) -> Result<Response, Refusal> {

@@ -4,15 +4,12 @@
 //! `scripts/regenerate-nightly.sh` writes it): when, and what drifted. Read from the bank
 //! folder each time the page is read, every file checked before it is shown.
 
+use crate::alarm::drift::{newest_check, LastCheck};
 use crate::bank::family::Family;
 use crate::model::Effect;
-use crate::site::drift::Drifted;
 use maud::{html, Markup};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use std::path::Path;
-
-/// The largest check report read (a report is a few kilobytes).
-const MAX_REPORT_BYTES: u64 = 16 << 20;
 
 /// What the site runs on.
 #[derive(Debug, Clone, Serialize)]
@@ -31,24 +28,6 @@ pub(super) struct SiteSetup {
     pub(super) unreadable: Option<String>,
 }
 
-/// The newest `calibration-*.json` in the bank folder.
-#[derive(Debug, Clone, Serialize)]
-pub(super) struct LastCheck {
-    /// Its file name (the date the nightly script put in it).
-    pub(super) file: String,
-    /// What drifted (empty: nothing); `None` for a report of `calibrate` without `--check`.
-    pub(super) drifted: Option<Vec<Drifted>>,
-    /// Why it cannot be read, when it cannot.
-    pub(super) unreadable: Option<String>,
-}
-
-/// The part of a report the page shows.
-#[derive(Deserialize)]
-struct Report {
-    #[serde(default)]
-    check: Option<Vec<Drifted>>,
-}
-
 /// The setup of the bank or family in `dir`.
 pub(super) fn setup(dir: &Path) -> SiteSetup {
     let mut s = SiteSetup {
@@ -56,7 +35,7 @@ pub(super) fn setup(dir: &Path) -> SiteSetup {
         voids: Vec::new(),
         gains: Vec::new(),
         family_load_step: None,
-        last_check: last_check(dir),
+        last_check: newest_check(dir),
         unreadable: None,
     };
     let opened = Family::open(dir).and_then(|(family, single)| {
@@ -88,40 +67,6 @@ pub(super) fn setup(dir: &Path) -> SiteSetup {
         Err(e) => s.unreadable = Some(e.to_string()),
     }
     s
-}
-
-/// The newest `calibration-*.json` in `dir` (by name: the nightly script dates them), read.
-fn last_check(dir: &Path) -> Option<LastCheck> {
-    let newest = std::fs::read_dir(dir)
-        .ok()?
-        .filter_map(|e| e.ok())
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.starts_with("calibration-") && n.ends_with(".json"))
-        .max()?;
-    let path = dir.join(&newest);
-    let read = || -> Result<Option<Vec<Drifted>>, String> {
-        let bytes = std::fs::metadata(&path).map_err(|e| e.to_string())?.len();
-        if bytes > MAX_REPORT_BYTES {
-            return Err(format!(
-                "{bytes} bytes, more than a report's {MAX_REPORT_BYTES}"
-            ));
-        }
-        let text = std::fs::read_to_string(&path).map_err(|e| e.to_string())?;
-        let r: Report = serde_json::from_str(&text).map_err(|e| format!("not a report: {e}"))?;
-        Ok(r.check)
-    };
-    Some(match read() {
-        Ok(drifted) => LastCheck {
-            file: newest,
-            drifted,
-            unreadable: None,
-        },
-        Err(e) => LastCheck {
-            file: newest,
-            drifted: None,
-            unreadable: Some(e),
-        },
-    })
 }
 
 /// The setup's part of the site page.

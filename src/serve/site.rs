@@ -111,6 +111,8 @@ pub(super) struct SiteView {
     pub(super) passes: Vec<PassRow>,
     /// The passes of the window refused or failed, newest first.
     pub(super) failures: Vec<Failure>,
+    /// The alarms: their counts and the newest ([`super::alarms`]).
+    pub(super) alarms: super::alarms::AlarmsView,
 }
 
 /// Whether a wheel needs action: its newest class acted on is inspect or urgent, or the class
@@ -188,6 +190,7 @@ pub(super) fn site_view(state: &AppState, q: SiteQuery) -> Result<SiteView, DbEr
             wheels_known,
             passes: db.passes_since(since, MAX_PASSES_SHOWN)?,
             failures: db.failures_since(since, MAX_PASSES_SHOWN)?,
+            alarms: super::alarms::alarms_view(db, None, super::alarms::MAX_ALARMS_SHOWN)?,
             query: q,
         })
     })
@@ -240,6 +243,7 @@ pub(super) fn site_html(v: &SiteView) -> Markup {
             }
             @if v.action_total > v.action.len() { p.note { (v.action_total - v.action.len()) " more: filter the table below by class." } }
         }
+        (super::alarms::alarms_html(&v.alarms))
         h2 { "Passes of the last " (format!("{:.0}", v.hours)) " h (" (v.passes.len()) ")" }
         @if !v.failures.is_empty() {
             table id="failures" {

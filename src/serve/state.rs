@@ -61,6 +61,8 @@ pub(crate) struct AppState {
     /// The joint answers of the site page's wheels, by wheel and its newest pass id: a wheel's
     /// answer changes only with a new pass of it (which has a larger id).
     joints: Mutex<HashMap<(String, i64), Option<Joint>>>,
+    /// What `/metrics` has counted so far (`super::metrics`).
+    pub(crate) counts: Mutex<super::counts::Counts>,
 }
 
 impl AppState {
@@ -73,6 +75,7 @@ impl AppState {
             pool: Mutex::new(vec![db]),
             drawn: super::drawn::Drawn::new(),
             joints: Mutex::new(HashMap::new()),
+            counts: Mutex::new(super::counts::Counts::default()),
         }))
     }
 

@@ -94,7 +94,7 @@ fn the_database_refuses_a_file_that_is_not_its_schema_naming_it() {
     let e = Db::open(&newer).err().expect("a newer schema is refused");
     assert!(
         e.to_string()
-            .contains("schema version 9, newer than this wheelflat's 2"),
+            .contains("schema version 9, newer than this wheelflat's 3"),
         "{e}"
     );
 

@@ -5,6 +5,7 @@
 
 mod common;
 
+mod alarms;
 mod audit;
 mod bank;
 mod batch;

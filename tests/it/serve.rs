@@ -15,7 +15,7 @@ use wheelflat::identify::synth::{synthesize, synthesize_pass, FieldNoise};
 use wheelflat::model::Flat;
 use wheelflat::serve::{router, Settings, Token};
 
-fn bank() -> &'static CachedBank {
+pub(crate) fn bank() -> &'static CachedBank {
     cached_bank("history-narrow", narrow_calibration, 2000, 500)
 }
 
@@ -530,7 +530,7 @@ fn a_version_1_database_is_read_as_it_is_and_upgraded_by_a_writer() {
     rusqlite::Connection::open(&db)
         .unwrap()
         .execute_batch(
-            "DROP TABLE failures; ALTER TABLE passes DROP COLUMN result_dir; ALTER TABLE wheel_passes DROP COLUMN dynamic_ratio_min; ALTER TABLE wheel_passes DROP COLUMN dynamic_ratio_max; PRAGMA user_version = 1;",
+            "DROP TABLE outbox; ALTER TABLE passes DROP COLUMN answer_ms; DROP TABLE failures; ALTER TABLE passes DROP COLUMN result_dir; ALTER TABLE wheel_passes DROP COLUMN dynamic_ratio_min; ALTER TABLE wheel_passes DROP COLUMN dynamic_ratio_max; PRAGMA user_version = 1;",
         )
         .unwrap();
     let app = router(settings(&db)).unwrap();
@@ -546,7 +546,7 @@ fn a_version_1_database_is_read_as_it_is_and_upgraded_by_a_writer() {
     assert_eq!(version(&db), 1, "serve leaves the file as it was");
     // A writer upgrades it, keeping every pass.
     drop(Db::open_existing(&db).unwrap());
-    assert_eq!(version(&db), 2);
+    assert_eq!(version(&db), 3);
     let app = router(settings(&db)).unwrap();
     assert_eq!(json(&app, "/api/site")["passes_stored"], 8);
 }
