@@ -10,16 +10,20 @@
 # PASSES_DIR: measurement CSVs `w<k>-p<j>.csv` (e.g. studies/src/bin/history_study's cache); each is
 # dropped with `# bogie_id = S<k>` and a line that makes it a new pass. WORK gets inbox/,
 # out/, results.sqlite, watch.log, rss.tsv (seconds, RSS kB, backlog) and history.tsv.
+#
+# WHEELFLAT_WATCH_ARGS: more arguments for `watch` (e.g. `--metrics 127.0.0.1:9187 --alarms
+# alarms.toml`, docs/alarms.md); WHEELFLAT_SCRAPE: a URL fetched with curl every second
+# (e.g. http://127.0.0.1:9187/metrics), its time written to WORK/scrape.tsv (seconds, ms).
 set -euo pipefail
 bank=$1 passes=$2 seconds=$3 work=$4 wf=${5:-target/release/wheelflat}
 mkdir -p "$work/inbox" "$work/out"
 "$wf" watch --bank "$bank" --inbox "$work/inbox" --out "$work/out" --db "$work/results.sqlite" \
-  --poll-ms 50 > "$work/watch.log" 2>&1 &
+  --poll-ms 50 ${WHEELFLAT_WATCH_ARGS:-} > "$work/watch.log" 2>&1 &
 watcher=$!
 trap 'kill -TERM $watcher 2>/dev/null || true' EXIT
 mapfile -t files < <(ls "$passes"/w*-p*.csv | sort)
 start=$(date +%s)
-: > "$work/rss.tsv"; : > "$work/history.tsv"
+: > "$work/rss.tsv"; : > "$work/history.tsv"; : > "$work/scrape.tsv"
 i=0
 while :; do
   now=$(date +%s); t=$((now - start))
@@ -41,6 +45,10 @@ while :; do
       && ok=ok || ok=fail
     e=$(date +%s.%N)
     printf '%s\t%s\t%.1f ms\n' "$t" "$ok" "$(echo "($e - $s) * 1000" | bc)" >> "$work/history.tsv"
+  fi
+  if [ -n "${WHEELFLAT_SCRAPE:-}" ]; then
+    ms=$(curl -s -o /dev/null -w '%{time_total}' "$WHEELFLAT_SCRAPE" | awk '{printf "%.2f", $1 * 1000}')
+    printf '%s\t%s\n' "$t" "$ms" >> "$work/scrape.tsv"
   fi
   i=$((i + 1))
   # One pass a second, on the second.

@@ -132,6 +132,10 @@ pub(super) enum Command {
         /// Where `--serve` listens.
         #[arg(long, default_value = "127.0.0.1:8080", requires = "serve")]
         listen: std::net::SocketAddr,
+        /// With `--serve`: the site's passes raise alarms by this `alarms.toml` and post them
+        /// to its webhooks (docs/alarms.md).
+        #[arg(long, requires = "serve")]
+        alarms: Option<PathBuf>,
     },
 }
 

@@ -38,15 +38,28 @@ const PASSES: [SitePass; 12] = [
 ];
 
 /// Identifies the site's passes into `out/site/results.sqlite` (a pass stored before is
-/// kept once) and serves it on `listen` until Ctrl-C.
-pub(super) fn run(out: &Path, bank_dir: &Path, listen: SocketAddr) -> Result<()> {
+/// kept once; with `alarms`, the alarms they raise posted to its webhooks) and serves it on
+/// `listen` until Ctrl-C.
+pub(super) fn run(
+    out: &Path,
+    bank_dir: &Path,
+    listen: SocketAddr,
+    alarms: Option<&Path>,
+) -> Result<()> {
     println!("\n5. A site (the passes of four bogies, as `watch --db` stores them)");
     let cal = super::load_calibration(None)?;
     let site = out.join("site");
     let inbox = site.join("measurements");
     create_output_folder(&inbox)?;
     let db_path = site.join("results.sqlite");
+    let config = alarms
+        .map(wheelflat::alarm::AlarmConfig::read)
+        .transpose()?;
     let mut db = open_db(&db_path)?;
+    if let Some(config) = &config {
+        let rules = &cal.identification;
+        db.raise_alarms(config.plan([rules.inspect_l0_mm, rules.urgent_l0_mm], rules.phi));
+    }
     let mut members = super::open_members(bank_dir, None)?;
     let speed = cal.run.speed_km_per_h;
     for (name, bogie, flat, seed, factor) in PASSES {
@@ -77,7 +90,12 @@ pub(super) fn run(out: &Path, bank_dir: &Path, listen: SocketAddr) -> Result<()>
             }
         }
     }
-    drop(db);
+    let store = super::db_args::Store {
+        db: Some(db),
+        sender: config.map(wheelflat::alarm::Sender::new),
+    };
+    store.send_once(String::new)?;
+    drop(store);
     let settings = wheelflat::serve::Settings::new(
         db_path.clone(),
         Some(bank_dir.to_path_buf()),

@@ -106,8 +106,9 @@ pub fn main() -> ExitCode {
             instances,
             serve,
             listen,
+            alarms,
         } => demo::run(&out, &bank, instances).and_then(|()| match serve {
-            true => demo_site::run(&out, &bank, listen),
+            true => demo_site::run(&out, &bank, listen, alarms.as_deref()),
             false => Ok(()),
         }),
     };

@@ -381,7 +381,7 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
         if !hold {
             Store {
                 db,
-                sender: sender.and_then(|s| Arc::into_inner(s)),
+                sender: sender.and_then(Arc::into_inner),
             }
             .send_once(|| format!("{} ", stamp()))?;
         }

@@ -26,7 +26,7 @@ th{background:#eef1f4}
 td.num{text-align:right;font-variant-numeric:tabular-nums}
 .badge{display:inline-block;border-radius:.3rem;padding:0 .4rem;font-weight:600;color:#fff}
 .none{background:#8a8f95}.monitor{background:#2f6db5}.inspect{background:#c77a00}.urgent{background:#c0392b}
-.refused,.failed{background:#6d4c9f}
+.refused,.failed{background:#6d4c9f} .pending{background:#8a8f95} .sent{background:#2e7d32}
 .note{color:#555;font-size:.9rem} .changed{font-weight:600;color:#c0392b}
 form.filter{display:flex;gap:.8rem;align-items:end;margin:.4rem 0 .6rem;font-size:.9rem}
 form.filter label{display:flex;flex-direction:column}

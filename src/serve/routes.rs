@@ -35,6 +35,7 @@ type Shared = Arc<AppState>;
 pub fn router(settings: Settings) -> Result<Router, ServeError> {
     let token = settings.token.clone().map(Arc::new);
     let state = AppState::new(settings)?;
+    count_in_background(&state);
     Ok(Router::new()
         .route("/", get(site_page))
         .route("/api/site", get(site_json))
@@ -60,11 +61,22 @@ pub fn router(settings: Settings) -> Result<Router, ServeError> {
 /// `/metrics` and `/health` alone (`watch --metrics`), over `settings`' database.
 pub fn metrics_router(settings: Settings) -> Result<Router, ServeError> {
     let state = AppState::new(settings)?;
+    count_in_background(&state);
     Ok(Router::new()
         .route("/metrics", get(metrics))
         .route("/health", get(health))
         .fallback(not_found)
         .with_state(state))
+}
+
+/// Counts the database once for `/metrics` on a thread of its own, so that the first scrape
+/// reads only what is new (the whole of a large database takes a quarter of a second,
+/// docs/alarms.md); a database that cannot be read now is read again by the first scrape.
+fn count_in_background(state: &Shared) {
+    let state = Arc::clone(state);
+    let _ = std::thread::Builder::new()
+        .name("metrics-count".into())
+        .spawn(move || metrics_text(&state));
 }
 
 /// Why a request gets no page.

@@ -712,3 +712,60 @@ fn a_drifted_nightly_check_raises_one_alarm_and_a_version_2_database_is_read_the
     assert_eq!(db.schema_version(), 3);
     assert_eq!(db.pass_count().unwrap(), 8);
 }
+
+#[test]
+fn identify_keeps_its_alarm_while_the_receiver_is_down_and_alarms_send_delivers_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let port = free_port();
+    let config = write_config(dir.path(), &format!("http://127.0.0.1:{port}/hook"));
+    let db = dir.path().join("results.sqlite");
+    let out = wheelflat()
+        .args(["identify", "--bank"])
+        .arg(&crate::serve::bank().0)
+        .arg("--measured")
+        .arg(site().root.join("f0.csv"))
+        .arg("--out")
+        .arg(dir.path().join("o"))
+        .arg("--db")
+        .arg(&db)
+        .arg("--alarms")
+        .arg(&config)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(out.status.success(), "{text}");
+    assert!(
+        text.contains("not sent to dispatch") && text.contains("kept"),
+        "{text}"
+    );
+    let list = |extra: &[&str]| {
+        let o = wheelflat()
+            .args(["alarms", "--db"])
+            .arg(&db)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).to_string()
+    };
+    let before = list(&[]);
+    assert!(
+        before.contains("0 pending, 1 failed (retried), 0 sent"),
+        "{before}"
+    );
+    assert!(
+        before.contains("urgent") && before.contains("F1/trailing"),
+        "{before}"
+    );
+    // The receiver is up: one round delivers it (its next try is due within 0.2 s).
+    let receiver = Receiver::start(port, Mode::Ok);
+    std::thread::sleep(Duration::from_millis(300));
+    let after = list(&["--send", "--alarms", config.to_str().unwrap()]);
+    assert!(after.contains("sent 1, failed 0"), "{after}");
+    assert!(
+        after.contains("0 pending, 0 failed (retried), 1 sent"),
+        "{after}"
+    );
+    assert_eq!(receiver.accepted().len(), 1);
+    assert!(signed(&receiver.accepted()[0]));
+}
