@@ -42,11 +42,13 @@ impl Identifier {
         let bounds = roughness.bounds(self.bounds);
         let comparison = roughness.comparison();
         // The load the record shows, and the record put on the bank's load (input::load::at_bank_load).
-        let recorded = self.detect(&axes, &series, self.bounds, Comparison::Samples);
+        let recorded = self.detect(&axes, &series, self.bounds, Comparison::Samples, None);
         let load = self.load_of(&axes, &series, &recorded);
         if let Some(l) = load.as_ref().filter(|_| !extras.as_recorded) {
             self.at_bank_load(&axes, &mut series, l);
         }
+        let shape = load.as_ref().and_then(|l| self.shape_change(&axes, l));
+        let shape = shape.as_deref();
         // Detection compares through the average, with the strike test on the record as taken;
         // wheels stated round, sample by sample as every pass did before roughness was
         // allowed for.
@@ -54,9 +56,9 @@ impl Identifier {
         let detected_by = self.detection_comparison();
         let stated_round = detected_by == Comparison::Samples;
         let detection = if stated_round {
-            self.detect(&axes, &series, bounds, Comparison::Samples)
+            self.detect(&axes, &series, bounds, Comparison::Samples, shape)
         } else {
-            let mut d = self.detect(&axes, &averaged, bounds, Comparison::Binomial5);
+            let mut d = self.detect(&axes, &averaged, bounds, Comparison::Binomial5, shape);
             let names: Vec<String> = series.iter().map(|s| s.sensor.clone()).collect();
             let level = hf_kn.max(roughness.noise_hf_kn);
             let spike = SpikeTest::of(&names, &hf_peaks, level);
@@ -100,7 +102,7 @@ impl Identifier {
                 (series, cands, rule)
             }
             Comparison::Samples => {
-                let rule = self.detect(&axes, &series, bounds, Comparison::Samples);
+                let rule = self.detect(&axes, &series, bounds, Comparison::Samples, shape);
                 (series, cands, rule)
             }
         };

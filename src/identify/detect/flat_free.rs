@@ -22,14 +22,24 @@ impl Identifier {
         series: &[MeasuredSeries],
         bounds: detect::TableBounds,
         c: Comparison,
+        shape_kn: Option<&[Vec<f64>]>,
     ) -> Detection {
         let templates: Vec<&[f32]> = axes.iter().map(|&a| self.flat_free(a, c)).collect();
         // On a family over loads, each sample's bound holds what the prediction at the pass's
         // load may miss there between members (0 on a linear track).
-        let extra: Vec<&[f64]> = match &self.load_shapes {
-            Some(s) => axes.iter().map(|&a| s.interpolation_error_kn(a)).collect(),
+        let mut extra: Vec<Vec<f64>> = match &self.load_shapes {
+            Some(s) => axes
+                .iter()
+                .map(|&a| s.interpolation_error_kn(a).to_vec())
+                .collect(),
             None => Vec::new(),
         };
+        if let Some(shape) = shape_kn {
+            for (e, x) in extra.iter_mut().zip(shape) {
+                e.iter_mut().zip(x).for_each(|(e, x)| *e += x);
+            }
+        }
+        let extra: Vec<&[f64]> = extra.iter().map(Vec::as_slice).collect();
         detect::detect_with(series, &templates, bounds, &extra)
     }
 

@@ -259,8 +259,27 @@ impl crate::identify::identifier::Identifier {
             &prepared.series,
             self.bounds,
             crate::identify::input::compare::Comparison::Samples,
+            None,
         );
         Ok(self.load_of(&axes, &prepared.series, &d))
+    }
+
+    /// Per bank axis in `axes`, per sample, how much the prediction's shape changes across the
+    /// interval of the pass's load `load` ([`LoadShapes::shape_change_kn`]): what a load
+    /// misread within it leaves in the record put on the member's load, which no sensor's
+    /// level absorbs. `None` unless the load was read between a family's members.
+    pub(in crate::identify) fn shape_change(
+        &self,
+        axes: &[usize],
+        load: &LoadEstimate,
+    ) -> Option<Vec<Vec<f64>>> {
+        let shapes = self.load_shapes.as_ref()?;
+        load.between_members_kn?;
+        Some(
+            axes.iter()
+                .map(|&a| shapes.shape_change_kn(a, load.wheel_load_kn, load.interval_kn))
+                .collect(),
+        )
     }
 
     /// Puts a pass's series (on the bank axes `axes`) on the bank's load. A pass heavier than

@@ -84,6 +84,42 @@ impl LoadShapes {
     pub(crate) fn interpolation_error_kn(&self, axis: usize) -> &[f64] {
         &self.interpolation_kn[axis]
     }
+
+    /// How much the prediction on `axis` changes *shape* (not only size) between the read load
+    /// `load_kn` and the ends of its interval `interval_kn`, per sample (kN): for each end, the
+    /// prediction there less its least-squares multiple of the prediction at the read load
+    /// (what a sensor's fitted level cannot absorb), the larger of the two, and the largest over
+    /// two samples either side. 0 on a linear track; beside a hanging sleeper, what a load
+    /// misread inside its interval leaves in the record moved to the member's load.
+    pub(crate) fn shape_change_kn(
+        &self,
+        axis: usize,
+        load_kn: f64,
+        interval_kn: [f64; 2],
+    ) -> Vec<f64> {
+        let g = self.at(axis, load_kn);
+        let gg: f64 = g.iter().map(|x| x * x).sum();
+        let mut e = vec![0.0f64; g.len()];
+        for end in interval_kn {
+            let h = self.at(axis, end);
+            let scale = if gg > 0.0 {
+                h.iter().zip(&g).map(|(a, b)| a * b).sum::<f64>() / gg
+            } else {
+                0.0
+            };
+            for ((x, a), b) in e.iter_mut().zip(&h).zip(&g) {
+                *x = x.max((a - scale * b).abs());
+            }
+        }
+        let n = e.len();
+        (0..n)
+            .map(|i| {
+                e[i.saturating_sub(2)..(i + 3).min(n)]
+                    .iter()
+                    .fold(0.0f64, |m, &x| m.max(x))
+            })
+            .collect()
+    }
 }
 
 /// [`LoadShapes::interpolation_error_kn`] of members at `loads_kn` (ascending), every axis.
@@ -173,6 +209,38 @@ mod tests {
             (one_step - 7.5).abs() < 1e-4 && one_step <= two_steps + 1e-9,
             "{one_step} {two_steps}"
         );
+    }
+
+    #[test]
+    fn a_misread_load_changes_the_shape_only_where_the_response_is_not_proportional() {
+        // Proportional in load: a misread changes the size only, which a level absorbs.
+        let linear = |l: f64| vec![vec![l as f32, 2.0 * l as f32, 0.5 * l as f32]];
+        let s = LoadShapes::new(vec![(30.0, linear(30.0)), (60.0, linear(60.0))]).unwrap();
+        let e = s.shape_change_kn(0, 45.0, [40.0, 50.0]);
+        assert!(e.iter().all(|&x| x < 1e-5), "{e:?}");
+        // A gap closing at 45 kN on the last sample only: from 45 to 50 kN it grows by
+        // 2·5 = 10 kN while the others grow in proportion. The least-squares multiple of the
+        // prediction at 45 kN, (45, 90, 0), that best matches (50, 100, 10) is 50/45; what it
+        // leaves is 10 kN on the last sample and nothing on the others, so the largest over
+        // the two samples either side is 10 kN on all three.
+        let kink = |l: f64| {
+            vec![vec![
+                l as f32,
+                2.0 * l as f32,
+                (2.0 * (l - 45.0).max(0.0)) as f32,
+            ]]
+        };
+        let k = LoadShapes::new(vec![
+            (30.0, kink(30.0)),
+            (45.0, kink(45.0)),
+            (60.0, kink(60.0)),
+        ])
+        .unwrap();
+        let e = k.shape_change_kn(0, 45.0, [45.0, 50.0]);
+        assert!(e.iter().all(|&x| (x - 10.0).abs() < 1e-4), "{e:?}");
+        // An interval that does not reach the kink: nothing.
+        let e = k.shape_change_kn(0, 40.0, [35.0, 45.0]);
+        assert!(e.iter().all(|&x| x < 1e-4), "{e:?}");
     }
 
     #[test]
