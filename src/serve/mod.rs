@@ -52,22 +52,26 @@ pub fn run(
         .build()
         .map_err(ServeError::Runtime)?;
     runtime.block_on(async move {
-        let listener = tokio::net::TcpListener::bind(listen)
-            .await
-            .map_err(|source| ServeError::Bind {
-                addr: listen,
-                source,
-            })?;
-        let bound = listener.local_addr().map_err(|source| ServeError::Bind {
-            addr: listen,
-            source,
-        })?;
+        let (listener, bound) = bind(listen).await?;
         ready(bound);
         axum::serve(listener, app)
             .with_graceful_shutdown(stopped())
             .await
             .map_err(ServeError::Runtime)
     })
+}
+
+/// A listener on `listen` and the address it bound (port 0: the one the system chose).
+async fn bind(listen: SocketAddr) -> Result<(tokio::net::TcpListener, SocketAddr), ServeError> {
+    let bind_error = |source| ServeError::Bind {
+        addr: listen,
+        source,
+    };
+    let listener = tokio::net::TcpListener::bind(listen)
+        .await
+        .map_err(bind_error)?;
+    let bound = listener.local_addr().map_err(bind_error)?;
+    Ok((listener, bound))
 }
 
 /// Resolves on SIGINT or SIGTERM.
@@ -97,16 +101,7 @@ pub fn run_metrics(settings: Settings, listen: SocketAddr) -> Result<SocketAddr,
         .enable_all()
         .build()
         .map_err(ServeError::Runtime)?;
-    let listener = runtime
-        .block_on(tokio::net::TcpListener::bind(listen))
-        .map_err(|source| ServeError::Bind {
-            addr: listen,
-            source,
-        })?;
-    let bound = listener.local_addr().map_err(|source| ServeError::Bind {
-        addr: listen,
-        source,
-    })?;
+    let (listener, bound) = runtime.block_on(bind(listen))?;
     std::thread::Builder::new()
         .name("metrics".into())
         .spawn(move || {

@@ -111,15 +111,21 @@ impl LoadShapes {
                 *x = x.max((a - scale * b).abs());
             }
         }
-        let n = e.len();
-        (0..n)
-            .map(|i| {
-                e[i.saturating_sub(2)..(i + 3).min(n)]
-                    .iter()
-                    .fold(0.0f64, |m, &x| m.max(x))
-            })
-            .collect()
+        within_two_samples(&e)
     }
+}
+
+/// Each sample's largest value within two samples either side (detection may compare through a
+/// five-sample average).
+fn within_two_samples(e: &[f64]) -> Vec<f64> {
+    let n = e.len();
+    (0..n)
+        .map(|i| {
+            e[i.saturating_sub(2)..(i + 3).min(n)]
+                .iter()
+                .fold(0.0f64, |m, &x| m.max(x))
+        })
+        .collect()
 }
 
 /// [`LoadShapes::interpolation_error_kn`] of members at `loads_kn` (ascending), every axis.
@@ -136,14 +142,7 @@ fn interpolation_error(loads_kn: &[f64], flat_free_kn: &[Vec<Vec<f32>>]) -> Vec<
                     *x = x.max((f64::from(g1[i]) - between).abs());
                 }
             }
-            // The largest within two samples either side.
-            (0..n)
-                .map(|i| {
-                    e[i.saturating_sub(2)..(i + 3).min(n)]
-                        .iter()
-                        .fold(0.0f64, |m, &x| m.max(x))
-                })
-                .collect()
+            within_two_samples(&e)
         })
         .collect()
 }
