@@ -6,22 +6,18 @@
 pub mod alarms;
 pub(crate) mod consist;
 pub(crate) mod db;
-pub(crate) mod failures;
 pub(crate) mod fuse;
 mod grid;
 pub(crate) mod record;
-mod row;
 mod rules;
-mod schema;
-pub(crate) mod tally;
 pub(crate) mod view;
 mod write;
 
 pub use alarms::{AlarmBody, AlarmCounts, AlarmRow, AlarmStatus, DriftLine, BODY_SCHEMA};
+pub use db::failures::{Failure, FailureKind};
+pub use db::tally::Tally;
 pub use db::{Db, DbError, StoredPass, Window};
-pub use failures::{Failure, FailureKind};
 pub use fuse::{fuse, Agreement, FusionRule, Joint};
 pub use record::{Claim, PassMeta, PassRecord, Space, WheelPass};
 pub use rules::{AlarmPlan, Rule};
-pub use tally::Tally;
 pub use view::{BankUse, PassDetail, PassRow, WheelOutcome, WheelRow};

@@ -3,9 +3,9 @@
 //! wheels, one pass whole, and the banks the passes were compared with. Read-only queries
 //! over the indexes the schema has (a wheel's newest pass is its largest pass id).
 
+use super::db::row::severity_range;
 use super::db::{Db, DbError, StoredPass};
 use super::record::Claim;
-use super::row::severity_range;
 use crate::identify::SeverityRange;
 use rusqlite::{params, OptionalExtension};
 use serde::Serialize;

@@ -2,8 +2,8 @@
 //! (`Db::raise_alarms`, [`super::alarms`]): the pass and its alarms are committed together or
 //! not at all.
 
+use super::db::failures::Failure;
 use super::db::{rfc3339, Db, DbError};
-use super::failures::Failure;
 use super::record::{boxes_to_bytes, PassRecord};
 use rusqlite::{params, OptionalExtension, Transaction, TransactionBehavior};
 

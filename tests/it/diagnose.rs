@@ -349,6 +349,7 @@ fn the_diagnose_command_reports_clean_data_and_names_a_missing_file() {
 }
 
 #[test]
+#[ignore = "acceptance: a speed line beyond the bank diagnosed, ~1.5 min on 2 cores"]
 fn a_speed_line_beyond_the_bank_is_diagnosed_from_the_record_and_identify_still_refuses_it() {
     // The train ran 10 % faster than the 50 km/h bank and the file says so (55 km/h):
     // `identify` refuses (no bank covers 55 km/h); `diagnose` takes the record as it is and

@@ -151,6 +151,7 @@ fn instances_are_counted_as_read_and_a_folded_speed_that_cannot_fold_still_simul
 }
 
 #[test]
+#[ignore = "acceptance: a site bank, a gap diagnosed and the rebuild's calibration, ~3 min on 2 cores"]
 fn a_model_gap_on_a_site_bank_is_named_and_the_calibration_to_rebuild_with_stays_folded() {
     // The local bank diagnose builds around the fitted flat is a few cells of X_p, not a
     // revolution: it is built unfolded; the calibration written for the user is the bank's own

@@ -17,11 +17,11 @@ mod outbox;
 pub use body::{AlarmBody, DriftLine, PassRef, RefusalCount, BODY_SCHEMA};
 pub use outbox::{AlarmCounts, AlarmRow, AlarmStatus};
 
+use super::db::failures::Failure;
+use super::db::StoredPass;
 use super::db::{now_s, rfc3339, Db, DbError, Window};
-use super::failures::Failure;
 use super::fuse::{fuse, Agreement, FusionRule};
 use super::record::PassRecord;
-use super::row::StoredPass;
 use super::rules::{AlarmPlan, Rule};
 use crate::identify::Severity;
 use sha2::{Digest, Sha256};

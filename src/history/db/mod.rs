@@ -12,13 +12,22 @@
 //!   train): storing it again (a restart between storing and moving the file) changes nothing.
 //! - **Readers while a writer writes.** The write-ahead log lets `history` read while `watch`
 //!   writes; both wait up to [`BUSY_TIMEOUT_MS`] for a lock.
+//!
+//! Beside it, one file a concern: its schema and upgrades ([`schema`]), reading a stored pass ([`row`]), the passes refused or failed
+//! ([`failures`]), the counts `/metrics` keeps ([`tally`]); writing a pass with its
+//! alarms is `history/write.rs`, beside the alarms it raises (which read this module).
 
-pub use super::row::StoredPass;
-use super::row::{severity_range, RawRow};
+pub(crate) mod failures;
+pub(in crate::history) mod row;
+mod schema;
+pub(crate) mod tally;
+
 use super::rules::AlarmPlan;
-use super::schema::{SCHEMA, UPGRADE_1_TO_2, UPGRADE_2_TO_3};
 use crate::identify::SeverityRange;
+pub use row::StoredPass;
+use row::{severity_range, RawRow};
 use rusqlite::{params, Connection, OpenFlags, TransactionBehavior};
+use schema::{SCHEMA, UPGRADE_1_TO_2, UPGRADE_2_TO_3};
 use std::path::{Path, PathBuf};
 
 /// `PRAGMA application_id` of a wheelflat results database: `WFLT`.

@@ -2,8 +2,8 @@
 //! after the last rows a reader has counted (row ids only grow), so that a scrape reads only
 //! what is new since the one before.
 
-use super::db::{Db, DbError};
 use super::row::severity_of;
+use super::{Db, DbError};
 use crate::identify::Severity;
 use rusqlite::params;
 

@@ -1,6 +1,6 @@
 //! A stored wheel pass as read from the database, every value checked before it is trusted.
 
-use super::record::{boxes_from_bytes, Claim, Space, WheelPass};
+use crate::history::record::{boxes_from_bytes, Claim, Space, WheelPass};
 use crate::identify::{Severity, SeverityRange};
 use crate::model::WheelPosition;
 
@@ -125,7 +125,10 @@ pub(crate) fn severity_of(s: &str) -> Option<Severity> {
 
 /// The classes of a stored range (`severity_lowest`, `severity_highest`), none when either is
 /// absent or not a class name (the lists' reading; [`RawRow::parse`] refuses a bad name).
-pub(super) fn severity_range(lo: Option<&str>, hi: Option<&str>) -> Option<SeverityRange> {
+pub(in crate::history) fn severity_range(
+    lo: Option<&str>,
+    hi: Option<&str>,
+) -> Option<SeverityRange> {
     let lowest = severity_of(lo?)?;
     let highest = severity_of(hi?)?;
     Some(SeverityRange { lowest, highest })

@@ -3,7 +3,7 @@
 //! would not open, a disk that would not take the result), each with its reason, so that the
 //! people who watch a site see them beside the answered passes.
 
-use super::db::{rfc3339, Db, DbError};
+use super::{rfc3339, Db, DbError};
 use rusqlite::params;
 use serde::Serialize;
 
@@ -56,7 +56,7 @@ impl Failure {
     /// A pass of `measurement` that gave no answer now, for [`Db::insert_failure`] (its row id
     /// and RFC 3339 time are the database's).
     pub fn now(measurement: String, kind: FailureKind, reason: String) -> Failure {
-        let time_s = super::db::now_s();
+        let time_s = super::now_s();
         Failure {
             id: 0,
             time: rfc3339(time_s),
