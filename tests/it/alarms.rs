@@ -772,3 +772,57 @@ fn identify_keeps_its_alarm_while_the_receiver_is_down_and_alarms_send_delivers_
     assert_eq!(receiver.accepted().len(), 1);
     assert!(signed(&receiver.accepted()[0]));
 }
+
+#[test]
+#[ignore = "acceptance: the demo with a 2,000-instance bank and --alarms, ~25 s"]
+fn the_demo_site_raises_its_urgent_alarms_into_a_local_receiver() {
+    let dir = tempfile::tempdir().unwrap();
+    let receiver = Receiver::start(0, Mode::Ok);
+    let config = write_config(dir.path(), &receiver.url());
+    let mut child = std::process::Command::new(wheelflat_path())
+        .args([
+            "demo",
+            "--instances",
+            "2000",
+            "--serve",
+            "--listen",
+            "127.0.0.1:0",
+        ])
+        .arg("--out")
+        .arg(dir.path().join("demo"))
+        .arg("--bank")
+        .arg(dir.path().join("bank"))
+        .arg("--alarms")
+        .arg(&config)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // The demo posts the site's alarms (one delivery round), then says where it serves.
+    let stdout = BufReader::new(child.stdout.take().unwrap());
+    let serving = stdout
+        .lines()
+        .map_while(Result::ok)
+        .any(|l| l.contains("serving ") && l.contains("http://"));
+    let _ = child.kill();
+    let _ = child.wait();
+    assert!(serving, "the demo says where it serves");
+    let accepted = receiver.accepted();
+    let bodies: Vec<serde_json::Value> = accepted.iter().map(body).collect();
+    assert!(
+        bodies.iter().any(|b| b["rule"] == "urgent"),
+        "the demo's site has an urgent flat: {bodies:?}"
+    );
+    assert!(accepted.iter().all(signed), "every alarm signed");
+    let keys: BTreeSet<&str> = accepted
+        .iter()
+        .map(|g| g.idempotency_key.as_str())
+        .collect();
+    assert_eq!(keys.len(), accepted.len(), "each alarm once");
+    assert!(
+        bodies
+            .iter()
+            .all(|b| b["schema"] == 1 && b["site"] == "test site"),
+        "{bodies:?}"
+    );
+}
