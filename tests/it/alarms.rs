@@ -779,34 +779,12 @@ fn the_demo_site_raises_its_urgent_alarms_into_a_local_receiver() {
     let dir = tempfile::tempdir().unwrap();
     let receiver = Receiver::start(0, Mode::Ok);
     let config = write_config(dir.path(), &receiver.url());
-    let mut child = std::process::Command::new(wheelflat_path())
-        .args([
-            "demo",
-            "--instances",
-            "2000",
-            "--serve",
-            "--listen",
-            "127.0.0.1:0",
-        ])
-        .arg("--out")
-        .arg(dir.path().join("demo"))
-        .arg("--bank")
-        .arg(dir.path().join("bank"))
-        .arg("--alarms")
-        .arg(&config)
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
     // The demo posts the site's alarms (one delivery round), then says where it serves.
-    let stdout = BufReader::new(child.stdout.take().unwrap());
-    let serving = stdout
-        .lines()
-        .map_while(Result::ok)
-        .any(|l| l.contains("serving ") && l.contains("http://"));
-    let _ = child.kill();
-    let _ = child.wait();
-    assert!(serving, "the demo says where it serves");
+    let (server, _) = crate::serve_browser::serve_the_demo(
+        dir.path(),
+        &["--alarms".as_ref(), config.as_os_str()],
+    );
+    drop(server);
     let accepted = receiver.accepted();
     let bodies: Vec<serde_json::Value> = accepted.iter().map(body).collect();
     assert!(

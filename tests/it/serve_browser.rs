@@ -26,7 +26,7 @@ fn chromium() -> PathBuf {
 }
 
 /// The server, stopped when dropped.
-struct Server(Child);
+pub(super) struct Server(Child);
 
 impl Drop for Server {
     fn drop(&mut self) {
@@ -184,10 +184,10 @@ fn decode_entities(s: &str) -> String {
         .replace("&amp;", "&")
 }
 
-#[test]
-#[ignore = "acceptance: the demo with a 2,000-instance bank, then its site served (over HTTP, no browser), ~20 s"]
-fn the_demo_serves_its_site() {
-    let dir = tempfile::tempdir().unwrap();
+/// `demo --instances 2000 --serve` into `dir` (with `extra` arguments): the server and the
+/// base URL it says it serves on (read from its output, after the demo's passes are stored
+/// and, with `--alarms`, their alarms posted).
+pub(super) fn serve_the_demo(dir: &Path, extra: &[&std::ffi::OsStr]) -> (Server, String) {
     let mut child = Command::new(wheelflat_path())
         .args([
             "demo",
@@ -198,9 +198,10 @@ fn the_demo_serves_its_site() {
             "127.0.0.1:0",
         ])
         .arg("--out")
-        .arg(dir.path().join("demo"))
+        .arg(dir.join("demo"))
         .arg("--bank")
-        .arg(dir.path().join("bank"))
+        .arg(dir.join("bank"))
+        .args(extra)
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
@@ -215,7 +216,14 @@ fn the_demo_serves_its_site() {
         }
     }
     let server = Server(child);
-    let url = url.expect("the demo says where it serves");
+    (server, url.expect("the demo says where it serves"))
+}
+
+#[test]
+#[ignore = "acceptance: the demo with a 2,000-instance bank, then its site served (over HTTP, no browser), ~20 s"]
+fn the_demo_serves_its_site() {
+    let dir = tempfile::tempdir().unwrap();
+    let (server, url) = serve_the_demo(dir.path(), &[]);
     let body = ureq::get(&format!("{url}/api/site"))
         .call()
         .unwrap()
