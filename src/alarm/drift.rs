@@ -43,12 +43,7 @@ pub fn newest_check(dir: &Path) -> Option<LastCheck> {
         .max()?;
     let path = dir.join(&newest);
     let meta = std::fs::metadata(&path);
-    let modified_s = meta
-        .as_ref()
-        .ok()
-        .and_then(|m| m.modified().ok())
-        .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
-        .map(|d| d.as_secs_f64());
+    let modified_s = modified_s(&path);
     // Err(String): why the report cannot be shown, on the page beside its name.
     let read = || -> Result<(Option<Vec<Drifted>>, Vec<u8>), String> {
         let bytes = meta.as_ref().map_err(|e| e.to_string())?.len();
@@ -78,6 +73,17 @@ pub fn newest_check(dir: &Path) -> Option<LastCheck> {
             content: Vec::new(),
         },
     })
+}
+
+/// When `path` was last written (Unix seconds), when the file system says.
+pub(crate) fn modified_s(path: &Path) -> Option<f64> {
+    std::fs::metadata(path)
+        .ok()?
+        .modified()
+        .ok()?
+        .duration_since(std::time::UNIX_EPOCH)
+        .ok()
+        .map(|d| d.as_secs_f64())
 }
 
 /// Raises the calibration-drift alarm when the newest check in `bank_dir` found drift (once a

@@ -14,7 +14,6 @@ use prometheus::proto::{
     Bucket, Counter, Gauge, Histogram, LabelPair, Metric, MetricFamily, MetricType,
 };
 use prometheus::{Encoder, TextEncoder};
-use std::path::Path;
 
 fn label(name: &str, value: &str) -> LabelPair {
     let mut l = LabelPair::default();
@@ -48,17 +47,6 @@ fn gauge(labels: Vec<LabelPair>, v: f64) -> Metric {
     m.set_label(labels);
     m.set_gauge(g);
     m
-}
-
-/// When `path` was last written (Unix seconds).
-fn modified_s(path: &Path) -> Option<f64> {
-    std::fs::metadata(path)
-        .ok()?
-        .modified()
-        .ok()?
-        .duration_since(std::time::UNIX_EPOCH)
-        .ok()
-        .map(|d| d.as_secs_f64())
 }
 
 /// The metrics now, in the Prometheus text format.
@@ -157,8 +145,8 @@ pub(crate) fn metrics_text(state: &AppState) -> Result<String, DbError> {
     ));
     if let Some(bank) = &state.settings.bank {
         let now = crate::history::db::now_s();
-        let switched =
-            modified_s(&bank.join("CURRENT")).or_else(|| modified_s(&bank.join("family.json")));
+        let switched = crate::alarm::drift::modified_s(&bank.join("CURRENT"))
+            .or_else(|| crate::alarm::drift::modified_s(&bank.join("family.json")));
         if let Some(t) = switched {
             fams.push(family(
                 "wheelflat_bank_age_seconds",

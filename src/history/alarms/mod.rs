@@ -224,10 +224,7 @@ impl Db {
         if !plan.on(Rule::CalibrationDrift) || drift.is_empty() {
             return Ok(false);
         }
-        let digest: String = Sha256::digest(content)
-            .iter()
-            .map(|b| format!("{b:02x}"))
-            .collect();
+        let digest = crate::bank::schema::sha256_hex(content);
         let key = key_of(&["calibration-drift", check_file, &digest]);
         let known: bool = self
             .conn
