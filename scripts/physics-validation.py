@@ -2,8 +2,8 @@
 """Physics-varied validation (issue 56): identify every pass of a cache made by
 `physics_passes` with `wheelflat identify` and judge it against its truth.
 
-    scripts/physics-validation.py WHEELFLAT BANK CACHE [--calibration F] [--refine] [--jobs 2]
-        [--cases FROM:TO]
+    scripts/physics-validation.py WHEELFLAT BANK CACHE [--calibration F] [--refine]
+        [--refine-strategy bounds|spread] [--refine-simulations N] [--jobs 2] [--cases FROM:TO]
 
 CACHE may also be a folder of independent passes (one folder a pass: `measured.csv`,
 `truth.json` with `flat` {L_mm, d_mm, L0_fresh_mm} or none).
@@ -56,6 +56,10 @@ def identify(args, case, work):
         cmd += ["--calibration", args.calibration]
     if args.refine:
         cmd += ["--refine"]
+        if args.refine_strategy:
+            cmd += ["--refine-strategy", args.refine_strategy]
+        if args.refine_simulations:
+            cmd += ["--refine-simulations", str(args.refine_simulations)]
     p = subprocess.run(cmd, capture_output=True, text=True)
     if p.returncode != 0:
         return {"error": (p.stderr or p.stdout).strip().splitlines()[-1:]}
@@ -94,6 +98,10 @@ def main():
     ap.add_argument("cache")
     ap.add_argument("--calibration")
     ap.add_argument("--refine", action="store_true")
+    ap.add_argument("--refine-strategy", choices=["bounds", "spread"],
+                    help="how the refinement spends its simulations (default: the binary's)")
+    ap.add_argument("--refine-simulations", type=int,
+                    help="the refinement's most simulations (default: the binary's)")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--cases", help="FROM:TO, the numbered cases judged (a subset of a cache)")
     ap.add_argument("--inspect", type=float, default=25.0)

@@ -19,7 +19,7 @@ import sys
 import tempfile
 
 FIRST = "3. Synthetic field measurement"
-CLOCK = re.compile(r"\d+(\.\d+)? ms\b|\(\d+(\.\d+)? s\)")
+CLOCK = re.compile(r"\d+(\.\d+)? ms\b|\(\d+(\.\d+)? s\b")
 
 
 def demo_block(binary, bank):

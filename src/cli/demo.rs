@@ -76,10 +76,6 @@ pub(super) fn run(out: &Path, bank_dir: &Path, instances: usize) -> Result<()> {
         },
     )?;
     // The refined answer beside the bank-only one (`identify --refine`).
-    wheelflat::pass::single::refine_into(
-        &identifier,
-        &mut id,
-        RefineSettings::default().simulations,
-    )?;
+    wheelflat::pass::single::refine_into(&identifier, &mut id, RefineSettings::default())?;
     identify::report(&id, &out.join("identification"), Some(&syn.truth))
 }

@@ -78,7 +78,7 @@ pub(super) fn run(
         let request = Request {
             sensors: None,
             extras: Extras::NONE,
-            refine_simulations: None,
+            refine: None,
             out: &result,
         };
         match identify_file(&mut members, &file, request, Some(&mut db)) {

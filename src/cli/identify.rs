@@ -6,7 +6,8 @@ use anyhow::{Context, Result};
 use std::path::Path;
 use wheelflat::identify::synth::Truth;
 use wheelflat::identify::{Extras, Identification};
-use wheelflat::pass::single::{identify_measurement, Request};
+use wheelflat::pass::input::{open_members, read_measurement};
+use wheelflat::pass::single::{identify_in, Request};
 use wheelflat::report::tables::{comparison_table, identification_text};
 
 /// Identifies; writes `identification.json` and prints the verdict before anything else, then
@@ -28,7 +29,8 @@ pub(super) fn identify(a: &IdentifyArgs) -> Result<()> {
 /// [`identify`] once the results database (when asked for) is open.
 fn identify_pass(a: &IdentifyArgs, db: Option<&mut wheelflat::history::Db>) -> Result<()> {
     let i = &a.input;
-    let (identifier, m) = open_measured(i, false)?;
+    let mut members = open_members(&i.bank, i.calibration.as_deref())?;
+    let (m, k) = read_measurement(&mut members, &i.measured, i.speed, false)?;
     let extras = if a.report {
         Extras {
             baselines: !a.no_baselines,
@@ -41,11 +43,11 @@ fn identify_pass(a: &IdentifyArgs, db: Option<&mut wheelflat::history::Db>) -> R
     let request = Request {
         sensors: i.sensors.as_deref(),
         extras,
-        refine_simulations: a.refine.simulations(),
+        refine: a.refine.settings(),
         out: &a.out,
     };
     let path = a.store.db.as_deref();
-    let pass = identify_measurement(&identifier, m, &i.measured, request, db)?;
+    let pass = identify_in(&mut members, k, m, &i.measured, request, db)?;
     if let (Some(new), Some(path)) = (pass.stored, path) {
         let bogie = pass.measurement.bogie_id.as_deref();
         println!("{}", super::history::stored_line(path, bogie, new));

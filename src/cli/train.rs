@@ -54,7 +54,7 @@ fn train_pass_of(a: &TrainArgs, db: Option<&mut Db>) -> Result<()> {
         &a.recording,
         &a.triggers,
         a.consist.as_deref(),
-        a.refine.simulations(),
+        a.refine.settings(),
     )?;
     if let Some(db) = db {
         let stored = train_pass::store_train(

@@ -115,7 +115,7 @@ fn identify_one(
             path,
             triggers,
             beside.consist.as_deref(),
-            a.refine.simulations(),
+            a.refine.settings(),
         )?;
         wheelflat::pass::train::write_train(&pass.result, out)?;
         // Stored before the inputs move: a crash between the two stores nothing twice.
@@ -145,11 +145,11 @@ fn identify_one(
             }
         ));
     }
-    let refine = a.refine.simulations();
+    let refine = a.refine.settings();
     let request = wheelflat::pass::single::Request {
         sensors: a.sensors.as_deref(),
         extras: wheelflat::identify::Extras::NONE,
-        refine_simulations: refine,
+        refine,
         out,
     };
     let pass = wheelflat::pass::single::identify_file(&mut open.members, path, request, db)?;

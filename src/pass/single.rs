@@ -8,18 +8,14 @@ use crate::identify::refine::{bank_simulator, refine, RefineSettings};
 use crate::identify::{Extras, Identification, Identifier, Measurement};
 use std::path::{Path, PathBuf};
 
-/// Refines `id` ([`crate::identify::refine`]) with `simulations` new flats and the
-/// identifier's bank calibration, and keeps the result in `id.refinement`.
+/// Refines `id` ([`crate::identify::refine`]) as `settings` say, with the identifier's bank
+/// calibration, and keeps the result in `id.refinement`.
 pub fn refine_into(
     identifier: &Identifier,
     id: &mut Identification,
-    simulations: usize,
+    settings: RefineSettings,
 ) -> Result<(), PassError> {
     let sim = bank_simulator(identifier)?;
-    let settings = RefineSettings {
-        simulations,
-        ..RefineSettings::default()
-    };
     id.refinement = Some(refine(identifier, &sim, id, settings)?);
     Ok(())
 }
@@ -83,8 +79,8 @@ pub struct Request<'a> {
     pub sensors: Option<&'a [String]>,
     /// What the report needs besides the answer (baselines, curves).
     pub extras: Extras,
-    /// Refine with this many simulations (`--refine`), when given.
-    pub refine_simulations: Option<usize>,
+    /// Refine with these settings (`--refine`), when given.
+    pub refine: Option<RefineSettings>,
     /// The folder its result goes into.
     pub out: &'a Path,
 }
@@ -101,9 +97,23 @@ pub fn identify_measurement(
     db: Option<&mut Db>,
 ) -> Result<Pass, PassError> {
     let started = std::time::Instant::now();
-    let mut id = identifier.identify(&measurement, request.sensors, request.extras)?;
-    if let Some(simulations) = request.refine_simulations {
-        refine_into(identifier, &mut id, simulations)?;
+    let id = identifier.identify(&measurement, request.sensors, request.extras)?;
+    finish(identifier, id, measurement, file, request, db, started)
+}
+
+/// The pass's answer refined when asked, written and stored ([`identify_measurement`]'s
+/// last steps).
+fn finish(
+    identifier: &Identifier,
+    mut id: Identification,
+    measurement: Measurement,
+    file: &Path,
+    request: Request,
+    db: Option<&mut Db>,
+    started: std::time::Instant,
+) -> Result<Pass, PassError> {
+    if let Some(settings) = request.refine {
+        refine_into(identifier, &mut id, settings)?;
     }
     let json = id
         .write_json(request.out)
@@ -131,8 +141,59 @@ pub fn identify_measurement(
     })
 }
 
+/// [`identify_measurement`] against member `k` of `members` (as [`input::read_measurement`]
+/// picked it), with one more step for a family over loads: when member `k` refutes every
+/// instance, the pass is compared with the members next to it by load at its speed (the
+/// nearer first, [`Members::load_neighbours`]) and the first one with an answer is taken, the
+/// summary saying so. A load read a few per cent off (a light wagon's car body moving on its
+/// springs) can pick a member the flat does not fit at that load; the flats of the next load
+/// are as much an answer as a refutation would be a wrong one. Refuted only when every
+/// neighbour refutes too.
+pub fn identify_in(
+    members: &mut Members,
+    k: usize,
+    measurement: Measurement,
+    file: &Path,
+    request: Request,
+    db: Option<&mut Db>,
+) -> Result<Pass, PassError> {
+    let started = std::time::Instant::now();
+    let mut id = members
+        .get(k)
+        .identify(&measurement, request.sensors, request.extras)?;
+    let mut used = k;
+    if id.model_class_refuted() {
+        for j in members.load_neighbours(k)? {
+            let other = members
+                .get(j)
+                .identify(&measurement, request.sensors, request.extras)?;
+            if !other.model_class_refuted() && other.sizing.is_some() {
+                let load = |i: usize| members.family().members[i].wheel_load_kn;
+                id = other;
+                id.summary = format!(
+                    "{} (Compared with the {:.1} kN member: the {:.1} kN member its load read picked refutes every instance.)",
+                    id.summary,
+                    load(j),
+                    load(k)
+                );
+                used = j;
+                break;
+            }
+        }
+    }
+    finish(
+        members.get(used),
+        id,
+        measurement,
+        file,
+        request,
+        db,
+        started,
+    )
+}
+
 /// A resident identifier's pass (`watch`): reads `path` and identifies it
-/// ([`identify_measurement`]) against the member its speed and load pick.
+/// ([`identify_in`]) against the member its speed and load pick.
 pub fn identify_file(
     members: &mut Members,
     path: &Path,
@@ -140,5 +201,5 @@ pub fn identify_file(
     db: Option<&mut Db>,
 ) -> Result<Pass, PassError> {
     let (m, k) = input::read_measurement(members, path, None, false)?;
-    identify_measurement(members.get(k), m, path, request, db)
+    identify_in(members, k, m, path, request, db)
 }

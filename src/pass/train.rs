@@ -23,15 +23,15 @@ pub struct TrainPass {
 
 /// One train pass, a recording and its trigger file, against a bank or a bank family: each
 /// bogie's speed (from its trigger pair) picks the member it is compared with, which must
-/// cover a train ([`crate::train::check_coverage`]). With `refine_simulations`, every wheel
-/// with a flat is refined with that many simulations ([`crate::train::refine_wheels`]). A consist names the bogies; it is checked
+/// cover a train ([`crate::train::check_coverage`]). With `refine`, every wheel
+/// with a flat is refined with those settings ([`crate::train::refine_wheels`]). A consist names the bogies; it is checked
 /// before any bogie is identified.
 pub fn identify_train(
     members: &mut Members,
     recording: &Path,
     triggers: &Path,
     consist: Option<&Path>,
-    refine_simulations: Option<usize>,
+    refine: Option<RefineSettings>,
 ) -> Result<TrainPass, PassError> {
     let started = std::time::Instant::now();
     let rate = members.family().sample_rate_hz;
@@ -79,11 +79,7 @@ pub fn identify_train(
     }
     let identifiers: Vec<&Identifier> = picked.iter().map(|&k| members.get(k)).collect();
     let mut result = crate::train::identify_bogies(&identifiers, &m, &bogies)?;
-    if let Some(simulations) = refine_simulations {
-        let settings = RefineSettings {
-            simulations,
-            ..RefineSettings::default()
-        };
+    if let Some(settings) = refine {
         crate::train::refine_wheels(&mut result, &identifiers, settings)?;
     }
     if let Some(ids) = ids {

@@ -269,3 +269,34 @@ pub fn physics(
     c.track.sleeper_mass_kg *= f(0.9, 1.1);
     c
 }
+
+/// One physics-varied pass's draws, in the order the validation sets were made with
+/// (`physics_passes`, and a wheel's in `history_study PHYSICS=1`): the vehicle, contact and
+/// track ([`physics`]), the car body ×[0.6, 1.4] (returned), the uncertainty table's model
+/// sources set to zero (the measurement's own sources only are drawn), and a tread roughness
+/// class among disc, composite and cast-iron (used where the pass is rough).
+pub fn physics_draw(
+    base: &wheelflat::model::Calibration,
+    state: &mut u64,
+) -> (
+    wheelflat::model::Calibration,
+    f64,
+    wheelflat::model::surface::RoughnessClass,
+) {
+    use wheelflat::model::calibration::UncertaintyGroup;
+    use wheelflat::model::surface::RoughnessClass;
+    let mut cal = physics(base, state);
+    let body = 0.6 + 0.8 * splitmix_uniform(state);
+    cal.vehicle.car_body_mass_kg *= body;
+    for u in &mut cal.identification.uncertainty {
+        if u.group == UncertaintyGroup::Model {
+            (u.min, u.max) = (0.0, 0.0);
+        }
+    }
+    let class = [
+        RoughnessClass::Disc,
+        RoughnessClass::Composite,
+        RoughnessClass::CastIron,
+    ][(splitmix_uniform(state) * 3.0) as usize % 3];
+    (cal, body, class)
+}

@@ -146,6 +146,90 @@ fn light_cars_are_covered_by_the_member_of_their_load_and_refused_by_a_fixed_loa
     assert_eq!(refused_by_fixed, cases);
 }
 
+/// The site profile as a family over the two lightest loads of a 0.6:1.4:0.2 family (0.6 and
+/// 0.8 × the car body: 34.8 and 42.2 kN a wheel), 8,000 instances a member as read (2,000
+/// simulated, folded), built once per test binary (about a minute on 2 cores).
+fn light_site_family() -> &'static PathBuf {
+    static FAMILY: OnceLock<PathBuf> = OnceLock::new();
+    FAMILY.get_or_init(|| {
+        let cal = wheelflat::model::Calibration::default().check().unwrap();
+        let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("family-light-site");
+        let band = SpeedBand::parse("50:50:1").unwrap();
+        let loads = LoadBand::parse("0.6:0.8:0.2", &cal.vehicle).unwrap();
+        let opts = options(8000, 2000);
+        generate_family(&cal, &dir, band, Some(loads), &opts, &Quiet, &|_, _, _| {}).unwrap();
+        dir
+    })
+}
+
+/// Issue 63's `physics-flat7` (the independent implementation's pass with its vehicle and
+/// contact varied as physics: a light wagon, car body 5,263 kg, an inspect-class flat L 86.5 mm
+/// × d 0.37 mm): its load is read 12 % light, which puts it on the 0.6 member, and that member
+/// refutes every instance — "the model class itself is refuted" on an ordinary pass, today's
+/// answer (asserted first). `identify` now compares it with the member next to it by load before
+/// anything is called refuted, says so, and holds the truth.
+#[test]
+fn a_pass_its_load_member_refutes_is_answered_by_the_next_load() {
+    let dir = light_site_family();
+    let pass = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/independent/physics-flat7");
+    let csv = pass.join("measured.csv");
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(pass.join("truth.json")).unwrap()).unwrap();
+    let (l_mm, d_mm) = (
+        truth["flat"]["L_mm"].as_f64().unwrap(),
+        truth["flat"]["d_mm"].as_f64().unwrap(),
+    );
+    let mut family = Members::open(dir, None).unwrap();
+    let (m, k) = wheelflat::pass::input::read_measurement(&mut family, &csv, None, false).unwrap();
+    assert_eq!(k, 0, "its load read picks the light member");
+    let there = family.get(0).identify(&m, None, Extras::NONE).unwrap();
+    assert!(there.model_class_refuted(), "{}", there.summary);
+    let tmp = tempfile::tempdir().unwrap();
+    let request = wheelflat::pass::single::Request {
+        sensors: None,
+        extras: Extras::NONE,
+        refine: None,
+        out: tmp.path(),
+    };
+    let answered =
+        wheelflat::pass::single::identify_in(&mut family, k, m, &csv, request, None).unwrap();
+    let id = &answered.id;
+    assert!(!id.model_class_refuted(), "{}", id.summary);
+    assert!(
+        id.summary
+            .contains("Compared with the 42.2 kN member: the 34.8 kN member its load read picked refutes every instance"),
+        "{}",
+        id.summary
+    );
+    let r = id.cms_ranges().expect("an answer");
+    assert!(
+        (r.length_mm[0]..=r.length_mm[1]).contains(&l_mm)
+            && (r.depth_mm[0]..=r.depth_mm[1]).contains(&d_mm),
+        "truth L {l_mm} mm, d {d_mm} mm against {r:?}"
+    );
+    // The CLI says the same.
+    let out = tmp.path().join("cli");
+    let run = wheelflat()
+        .args(["identify", "--bank"])
+        .arg(dir)
+        .arg("--measured")
+        .arg(&csv)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(
+        text.contains("Compared with the 42.2 kN member") && !text.contains("refuted."),
+        "{text}"
+    );
+}
+
 #[test]
 fn a_train_of_empty_and_laden_cars_compares_each_bogie_at_its_own_load() {
     let dir = site_load_family();

@@ -54,6 +54,30 @@ pub struct Refinement {
     /// (absent: no check ran).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub landings_settled: Option<[bool; 2]>,
+    /// How the simulations were spent.
+    #[serde(default)]
+    pub strategy: RefineStrategy,
+    /// With the bounds strategy: whether the L0 bounds stopped moving (else the budget ended
+    /// the refinement).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bounds_settled: Option<bool>,
+    /// The L0 (mm) of the shallowest and deepest kept flats themselves, without their cells:
+    /// the part of the answer that simulated flats passing the pass already occupy.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kept_l0_mm: Option<[f64; 2]>,
+}
+
+/// How a refinement spends its simulations (docs/identification.md, "Refinement").
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RefineStrategy {
+    /// Rounds sampling every surviving cell, the cells reaching deepest and shallowest in d
+    /// more often (the refinement before issue 63).
+    #[default]
+    Spread,
+    /// Rounds sampling only the cells that decide the L0 bounds, every flat simulated kept in
+    /// the local population, until the bounds stop moving (issue 63).
+    Bounds,
 }
 
 impl Refinement {
@@ -73,6 +97,9 @@ impl Refinement {
             landings_simulated: 0,
             landings_removed: 0,
             landings_settled: None,
+            strategy: RefineStrategy::Spread,
+            bounds_settled: None,
+            kept_l0_mm: None,
         }
     }
 }

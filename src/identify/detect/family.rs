@@ -198,6 +198,36 @@ impl Members {
         Ok(s)
     }
 
+    /// The members next to member `k` by load at its speed (the lighter and the heavier one,
+    /// the nearer in wheel load first), opened with the load shapes of that speed; none for a
+    /// family without loads.
+    pub fn load_neighbours(&mut self, k: usize) -> Result<Vec<usize>, IdentifyError> {
+        if self.family.loads.is_none() {
+            return Ok(Vec::new());
+        }
+        let at_speed = self.family.at_speed_of(k);
+        let Some(i) = at_speed.iter().position(|&j| j == k) else {
+            return Ok(Vec::new());
+        };
+        let mut out: Vec<usize> = [i.checked_sub(1), Some(i + 1)]
+            .into_iter()
+            .flatten()
+            .filter_map(|t| at_speed.get(t).copied())
+            .collect();
+        let load = |j: usize| self.family.members[j].wheel_load_kn;
+        let own = load(k);
+        out.sort_by(|&a, &b| (load(a) - own).abs().total_cmp(&(load(b) - own).abs()));
+        let shapes = self.shapes_at(&at_speed)?;
+        for &j in &out {
+            self.open_member(j)?;
+            self.open[j]
+                .as_mut()
+                .expect("opened above")
+                .set_load_shapes(shapes.clone());
+        }
+        Ok(out)
+    }
+
     /// Opens member `k` if it is not open yet (`k` as [`Family::member_for`] gives it).
     pub fn open_member(&mut self, k: usize) -> Result<(), IdentifyError> {
         if self.open[k].is_none() {

@@ -81,16 +81,14 @@ pub(super) fn local_cells(members: &[Member]) -> Cells {
 }
 
 /// The union of the members' cells, clamped to the population, L0 from the depth bounds.
-pub(super) fn ranges_of(
-    members: &[Member],
+pub(super) fn ranges_of<'a>(
+    members: impl Iterator<Item = &'a Member> + Clone,
     pop: &PopulationParams,
     radius_m: f64,
 ) -> Option<ParamRanges> {
-    if members.is_empty() {
-        return None;
-    }
+    members.clone().next()?;
     let span = |t: usize, clamp: [f64; 2]| {
-        let [lo, hi] = members.iter().fold([f64::MAX, f64::MIN], |[lo, hi], m| {
+        let [lo, hi] = members.clone().fold([f64::MAX, f64::MIN], |[lo, hi], m| {
             [lo.min(m.x[t] - m.half[t]), hi.max(m.x[t] + m.half[t])]
         });
         [lo.max(clamp[0]), hi.min(clamp[1])]
@@ -98,7 +96,7 @@ pub(super) fn ranges_of(
     let depth_mm = span(1, pop.depth_mm);
     let mut wheels: Vec<WheelPosition> = Vec::new();
     for w in [WheelPosition::Leading, WheelPosition::Trailing] {
-        if members.iter().any(|m| m.wheel == w) {
+        if members.clone().any(|m| m.wheel == w) {
             wheels.push(w);
         }
     }

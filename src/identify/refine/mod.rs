@@ -33,19 +33,22 @@
 //! round judged at every sample of the record (severity right 0.73 against 0.63, coverage
 //! 0.80–0.87 on the finer-model cases).
 
+mod bounds;
+mod judge;
 mod landing;
 mod local;
 mod points;
 
 use super::answer::identification::Identification;
-pub use super::answer::refinement::{RefineRound, Refinement};
-use super::domain::falsify::{falsify, largest_step, Resolution};
-use super::domain::shared_gain::keep_resolved;
+pub use super::answer::refinement::{RefineRound, RefineStrategy, Refinement};
+use super::domain::falsify::largest_step;
 use crate::identify::error::IdentifyError;
 use crate::identify::identifier::Identifier;
-use crate::model::{Simulator, WheelPosition};
-use local::{local_cells, ranges_of, sample_in_cells};
-use points::{simulate_at, Comparison};
+use crate::model::{Flat, Simulator, WheelPosition};
+pub use bounds::{CALM_ROUNDS, DECIDING_CELLS};
+use judge::Judge;
+use local::{ranges_of, sample_in_cells};
+use points::Comparison;
 
 /// The most simulations one refinement may ask for (a resource bound: 20,000 take about
 /// 40 s on 2 cores).
@@ -56,13 +59,23 @@ const SIMULATIONS_RANGE: &str = "1–20000";
 /// How much refinement to do.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RefineSettings {
-    /// Simulations in all, split evenly over the rounds (1–[`MAX_SIMULATIONS`]).
+    /// How the simulations are spent: spread over every surviving cell in `rounds` rounds,
+    /// or at the cells that decide the L0 bounds until they stop moving.
+    pub strategy: RefineStrategy,
+    /// Simulations in all (1–[`MAX_SIMULATIONS`]): split evenly over the rounds (spread), or
+    /// the most the bounds may take (bounds).
     pub simulations: usize,
-    /// Rounds (1–8).
+    /// Rounds of the spread strategy (1–8).
     pub rounds: usize,
+    /// Simulations a round of the bounds strategy (8–1024).
+    pub per_round: usize,
+    /// The bounds strategy stops when neither L0 bound moved by more than this over
+    /// [`CALM_ROUNDS`] rounds in a row (mm; 0.05–10).
+    pub tolerance_mm: f64,
     /// Seed of the sampling inside the cells.
     pub seed: u64,
-    /// κ of the local cells (`None`: the identification's `bank_resolution`).
+    /// κ of the local cells (`None`: the identification's `bank_resolution` when spreading,
+    /// its `refine_resolution` when settling the bounds).
     pub kappa: Option<f64>,
     /// Each round, the seeds whose cells reach deepest or shallowest in d (an eighth of them
     /// at each end, at least one) are sampled this many times as often as the others: the
@@ -78,8 +91,11 @@ pub struct RefineSettings {
 impl Default for RefineSettings {
     fn default() -> Self {
         RefineSettings {
+            strategy: RefineStrategy::Bounds,
             simulations: 640,
             rounds: 2,
+            per_round: 64,
+            tolerance_mm: 0.5,
             seed: 1,
             kappa: None,
             ends_weight: 4,
@@ -120,6 +136,20 @@ impl RefineSettings {
                 setting: "landing simulations",
                 value: l.to_string(),
                 range: "0–256",
+            });
+        }
+        if !(8..=1024).contains(&self.per_round) {
+            return Err(IdentifyError::Setting {
+                setting: "simulations a round",
+                value: self.per_round.to_string(),
+                range: "8–1024",
+            });
+        }
+        if !(self.tolerance_mm.is_finite() && (0.05..=10.0).contains(&self.tolerance_mm)) {
+            return Err(IdentifyError::Setting {
+                setting: "bound tolerance (mm)",
+                value: self.tolerance_mm.to_string(),
+                range: "0.05–10",
             });
         }
         if !(1..=8).contains(&self.rounds) {
@@ -179,15 +209,32 @@ pub fn refine(
     id: &Identification,
     settings: RefineSettings,
 ) -> Result<Refinement, IdentifyError> {
+    refine_from(identifier, sim, id, settings, &[])
+}
+
+/// [`refine`], with `anchors` — flats (L, d, c, X_p in mm, mm, mm, m; the wheel) simulated
+/// into the first population beside the bank's — for studies that seed it where the truth
+/// lies (the floor of issue 63: `studies/src/bin/floor_study.rs`). With the spread strategy
+/// the anchors are among the first round's seeds.
+pub fn refine_from(
+    identifier: &Identifier,
+    sim: &Simulator,
+    id: &Identification,
+    settings: RefineSettings,
+    anchors: &[([f64; 4], WheelPosition)],
+) -> Result<Refinement, IdentifyError> {
     settings.check()?;
     let t0 = std::time::Instant::now();
     let bank = identifier.bank();
     let cal = &bank.metadata().calibration;
     let pop = &cal.population;
     let radius = cal.vehicle.wheel_radius_m;
-    let kappa = settings
-        .kappa
-        .unwrap_or(identifier.settings().bank_resolution);
+    // κ of the local cells: the bank's when spreading over its cells, the refinement's own
+    // when settling the bounds among simulated neighbours.
+    let kappa = settings.kappa.unwrap_or(match settings.strategy {
+        RefineStrategy::Spread => identifier.settings().bank_resolution,
+        RefineStrategy::Bounds => identifier.settings().refine_resolution,
+    });
     let Some(sizing) = id.sizing.as_ref() else {
         let mut out = finish(Refinement::empty(), t0, identifier);
         out.summary =
@@ -195,9 +242,6 @@ pub fn refine(
         return Ok(out);
     };
     let cmp = Comparison::of(identifier, id, sizing);
-    let method_points = cmp.method;
-    // Every point read: the method's, then (with the shared-gain stage) every PIP candidate.
-    let all_points = cmp.at.len();
 
     // Seeds: the bank's survivors with their cells and their stored predictions. With a
     // discretisation allowance each point is read over the samples its step spans (a sample
@@ -215,36 +259,40 @@ pub fn refine(
         columns.extend((lo..=hi).map(|k| bank.sample_index(at.0, k)));
     }
     let stored = bank.read_columns(&columns)?;
-    let mut seeds: Vec<Member> = sizing
-        .cms
-        .iter()
-        .map(|s| {
-            let k = s.instance as usize;
-            let half = identifier
-                .resolution()
-                .map_or([0.0; 4], |r| r.cells.half_extent(k));
-            let (mut g, mut steps) = (Vec::new(), Vec::new());
-            for (&at, &(first, lo, hi)) in cmp.at.iter().zip(&spans) {
-                let read = |j: usize| stored[first + j - lo][k];
-                g.push(Comparison::value(at, read));
-                if shares.is_some() {
-                    steps.push(largest_step((lo..=hi).map(read)));
-                }
+    let params = identifier.params();
+    let bank_member = |k: usize| {
+        let half = identifier
+            .resolution()
+            .map_or([0.0; 4], |r| r.cells.half_extent(k));
+        let (mut g, mut steps) = (Vec::new(), Vec::new());
+        for (&at, &(first, lo, hi)) in cmp.at.iter().zip(&spans) {
+            let read = |j: usize| stored[first + j - lo][k];
+            g.push(Comparison::value(at, read));
+            if shares.is_some() {
+                steps.push(largest_step((lo..=hi).map(read)));
             }
-            Member {
-                x: [s.length_mm, s.depth_mm, s.curvature_mm, s.impact_position_m],
-                wheel: s.flat_wheel,
-                half,
-                g,
-                steps,
-                share: shares.map_or(0.0, |d| d[k]),
-            }
-        })
-        .collect();
+        }
+        Member {
+            x: [
+                params.length_mm[k],
+                params.depth_mm[k],
+                params.curvature_mm[k],
+                params.impact_position_m[k],
+            ],
+            wheel: WheelPosition::from_code(params.flat_wheel[k]),
+            half,
+            g,
+            steps,
+            share: shares.map_or(0.0, |d| d[k]),
+        }
+    };
+    let survivors: Vec<usize> = sizing.cms.iter().map(|s| s.instance as usize).collect();
+    let mut seeds: Vec<Member> = survivors.iter().map(|&k| bank_member(k)).collect();
 
     let mut out = Refinement {
-        ranges: ranges_of(&seeds, pop, radius),
+        ranges: ranges_of(seeds.iter(), pop, radius),
         survivors: seeds.len(),
+        strategy: settings.strategy,
         ..Refinement::empty()
     };
     if seeds.is_empty() {
@@ -255,94 +303,103 @@ pub fn refine(
         .clone()
         .unwrap_or_else(|| crate::identify::detect::roughness::RoughnessUse::none(0.0, 0.0))
         .bounds(identifier.bounds);
+    let judge = Judge {
+        identifier,
+        cmp: &cmp,
+        kappa,
+        rough_bounds: &rough_bounds,
+        shared: !sizing.shared_gains_fallback,
+    };
+    if !anchors.is_empty() {
+        let flats: Vec<(Flat, [f64; 4], WheelPosition)> = anchors
+            .iter()
+            .filter_map(|&(x, w)| {
+                Flat::from_mm(x[0], x[1], x[2], x[3])
+                    .ok()
+                    .map(|f| (f.on_wheel(w), x, w))
+            })
+            .collect();
+        seeds.extend(simulated(&judge, sim, &cmp, flats, &mut out)?);
+    }
     let mut state = settings.seed ^ 0x5DEE_CE66_D1CE_4E5B;
     // The last round's population, for the landing check.
     let mut last: Option<landing::Round> = None;
-    for round in 0..settings.rounds {
-        let budget = settings.simulations / settings.rounds
-            + usize::from(round < settings.simulations % settings.rounds);
-        let flats = sample_in_cells(
-            &weighted_ends(&seeds, settings.ends_weight),
-            budget,
-            pop,
-            &mut state,
-        );
-        let predictions = simulate_at(sim, &cmp, &flats)?;
-        out.simulations += flats.len();
-        let mut members: Vec<Member> = std::mem::take(&mut seeds);
-        members.extend(flats.into_iter().zip(predictions).map(
-            |((_, x, wheel), (g, steps, peak_kn))| Member {
-                x,
-                wheel,
-                half: [0.0; 4],
-                g,
-                steps,
-                share: identifier.discretisation_share(peak_kn),
-            },
-        ));
-        let cells = local_cells(&members);
-        for (i, m) in members.iter_mut().enumerate() {
-            m.half = cells.half_extent(i);
-        }
-        let columns: Vec<Vec<f32>> = (0..all_points)
-            .map(|p| members.iter().map(|m| m.g[p]).collect())
-            .collect();
-        let steps: Vec<Vec<f32>> = (0..all_points)
-            .map(|p| {
-                members
+    match settings.strategy {
+        RefineStrategy::Spread => {
+            for round in 0..settings.rounds {
+                let budget = settings.simulations / settings.rounds
+                    + usize::from(round < settings.simulations % settings.rounds);
+                let flats = sample_in_cells(
+                    &weighted_ends(&seeds, settings.ends_weight),
+                    budget,
+                    pop,
+                    &mut state,
+                );
+                let mut members: Vec<Member> = std::mem::take(&mut seeds);
+                members.extend(simulated(&judge, sim, &cmp, flats, &mut out)?);
+                let judged = judge.round(members);
+                let kept: Vec<Member> = judged
+                    .alive
                     .iter()
-                    .map(|m| m.steps.get(p).copied().unwrap_or(0.0))
-                    .collect()
-            })
-            .collect();
-        let shares: Vec<f32> = members.iter().map(|m| m.share).collect();
-        let any = shares.iter().any(|&s| s > 0.0);
-        let points = cmp.points(
-            &columns,
-            0..method_points,
-            &steps,
-            any.then_some(shares.as_slice()),
-        );
-        let res = (kappa > 0.0).then_some(Resolution {
-            cells: &cells,
-            kappa,
-        });
-        let mut alive = falsify(&points, res);
-        if all_points > method_points && !sizing.shared_gains_fallback {
-            // One gain per sensor at every point read (docs/model.md, "Shared gains").
-            let shared = cmp.shared_points(
-                &columns,
-                &steps,
-                any.then_some(shares.as_slice()),
-                &rough_bounds,
-            );
-            let form = identifier.settings().shared_model_form;
-            let kept = keep_resolved(&shared, &alive, &rough_bounds, form, res);
-            // As the bank-only answer: none explained lets the per-point survivors stand.
-            if !kept.is_empty() {
-                alive = kept;
+                    .map(|&k| judged.members[k as usize].clone())
+                    .collect();
+                let ranges = ranges_of(kept.iter(), pop, radius);
+                out.rounds.push(RefineRound {
+                    simulated: budget,
+                    survivors: kept.len(),
+                    ranges: ranges.clone(),
+                });
+                if kept.is_empty() {
+                    out.stopped_early = true;
+                    break;
+                }
+                out.ranges = ranges;
+                out.survivors = kept.len();
+                seeds = kept;
+                last = Some(judged);
             }
         }
-        let kept: Vec<Member> = alive.iter().map(|&k| members[k as usize].clone()).collect();
-        let ranges = ranges_of(&kept, pop, radius);
-        out.rounds.push(RefineRound {
-            simulated: budget,
-            survivors: kept.len(),
-            ranges: ranges.clone(),
-        });
-        if kept.is_empty() {
-            out.stopped_early = true;
-            break;
+        RefineStrategy::Bounds => {
+            // The survivors' bank neighbours join them: each survivor's first local cell is
+            // then its bank cell (bounds.rs).
+            let mut population = seeds.clone();
+            let mut taken: std::collections::HashSet<usize> = survivors.iter().copied().collect();
+            if let Some(r) = identifier.resolution() {
+                for &k in &survivors {
+                    for &j in r.cells.neighbours(k) {
+                        if taken.insert(j as usize) {
+                            population.push(bank_member(j as usize));
+                        }
+                    }
+                }
+            }
+            let done = bounds::settle(
+                &judge,
+                sim,
+                &cmp,
+                &seeds,
+                population,
+                settings.simulations,
+                settings.per_round,
+                settings.tolerance_mm,
+                pop,
+                radius,
+                &mut state,
+            )?;
+            out.simulations += done.simulated;
+            out.rounds = done.rounds;
+            out.bounds_settled = Some(done.settled);
+            // A last round that kept nothing lets the round before it stand (said).
+            out.stopped_early = done.last.alive.is_empty() && done.ranges.is_some();
+            if done.ranges.is_some() {
+                out.ranges = done.ranges;
+                out.survivors = done.kept.len();
+                seeds = done.kept;
+            }
+            if !done.last.alive.is_empty() {
+                last = Some(done.last);
+            }
         }
-        out.ranges = ranges;
-        out.survivors = kept.len();
-        seeds = kept;
-        last = Some(landing::Round {
-            members,
-            cells,
-            columns,
-            alive,
-        });
     }
     // Landings resolved by simulation where they decide the bounds (landing.rs).
     let landings = settings
@@ -373,7 +430,7 @@ pub fn refine(
                 .iter()
                 .map(|&k| round.members[k as usize].clone())
                 .collect();
-            out.ranges = ranges_of(&seeds, pop, radius);
+            out.ranges = ranges_of(seeds.iter(), pop, radius);
             out.survivors = seeds.len();
         }
     }
@@ -390,8 +447,29 @@ pub fn refine(
                 (b, m.wheel)
             })
             .collect();
+        // Where the kept flats themselves lie (no cell): the set's extent resolved so far.
+        let [lo, hi] = seeds.iter().fold([f64::MAX, f64::MIN], |[lo, hi], m| {
+            [lo.min(m.x[1]), hi.max(m.x[1])]
+        });
+        out.kept_l0_mm = Some([
+            Flat::fresh_length_mm(lo, radius),
+            Flat::fresh_length_mm(hi, radius),
+        ]);
     }
     Ok(finish(out, t0, identifier))
+}
+
+/// `flats` simulated at the comparison points, as members of the local population (counted
+/// in `out.simulations`).
+fn simulated(
+    judge: &Judge,
+    sim: &Simulator,
+    cmp: &Comparison,
+    flats: Vec<(Flat, [f64; 4], WheelPosition)>,
+    out: &mut Refinement,
+) -> Result<Vec<Member>, IdentifyError> {
+    out.simulations += flats.len();
+    bounds::simulated_members(judge, sim, cmp, flats)
 }
 
 /// `seeds`, with those whose cells reach deepest or shallowest in d repeated so that each
@@ -453,8 +531,13 @@ fn finish(mut out: Refinement, t0: std::time::Instant, identifier: &Identifier) 
             } else {
                 String::new()
             };
+            let settled = match out.bounds_settled {
+                Some(true) => ", the L0 bounds settled",
+                Some(false) => ", the budget spent before the L0 bounds settled",
+                None => "",
+            };
             format!(
-                "refined: {} flats survive after {} simulations in {rounds} rounds ({:.1} s){early}: L in [{:.0}, {:.0}] mm, d in [{:.2}, {:.2}] mm, L0 in [{:.0}, {:.0}] mm, X_p in [{:.3}, {:.3}] m.{landings}",
+                "refined: {} flats survive after {} simulations in {rounds} rounds ({:.1} s{settled}){early}: L in [{:.0}, {:.0}] mm, d in [{:.2}, {:.2}] mm, L0 in [{:.0}, {:.0}] mm, X_p in [{:.3}, {:.3}] m.{landings}",
                 out.survivors, out.simulations, out.time_ms / 1e3,
                 r.length_mm[0], r.length_mm[1], r.depth_mm[0], r.depth_mm[1],
                 r.l0_mm[0], r.l0_mm[1], r.impact_position_m[0], r.impact_position_m[1]

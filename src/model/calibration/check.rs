@@ -434,6 +434,7 @@ impl Calibration {
             ("shared_model_form[1]", f[1], 1.0),
             ("shared_model_form[2]", f[2], 1e3),
             ("refine_landings", id.refine_landings as f64, 256.0),
+            ("refine_resolution", id.refine_resolution, 10.0),
         ] {
             within(&format!("identification.{key}"), v, 0.0, hi)?;
         }

@@ -19,6 +19,9 @@ mod text;
 pub use super::effect::Effect;
 pub use super::wheel::WheelPosition;
 pub use maintenance::MaintenanceParams;
+pub use defaults::{
+    DISCRETISATION_DYNAMIC_RATIO, DISCRETISATION_FRACTION, REFINE_RESOLUTION, SHARED_MODEL_FORM,
+};
 pub use mesh::RefinedSpan;
 pub use roughness::{RailRoughness, WheelRoughness};
 
@@ -175,43 +178,6 @@ pub struct IntegrationParams {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub refine: Vec<RefinedSpan>,
 }
-
-/// [`IdentificationParams::discretisation_fraction`]'s default (a calibration written before
-/// it existed reads it).
-fn default_discretisation_fraction() -> f64 {
-    DISCRETISATION_FRACTION
-}
-
-/// [`IdentificationParams::discretisation_dynamic_ratio`]'s default.
-fn default_discretisation_dynamic_ratio() -> f64 {
-    DISCRETISATION_DYNAMIC_RATIO
-}
-
-/// [`IdentificationParams::shared_gains`]' default.
-fn default_shared_gains() -> bool {
-    true
-}
-
-/// [`IdentificationParams::shared_model_form`]'s default.
-fn default_shared_model_form() -> [f64; 3] {
-    SHARED_MODEL_FORM
-}
-
-/// The default of [`IdentificationParams::shared_model_form`]: 2 % of the prediction, 10 % of
-/// its departure from the good wheel and 2 kN hold every sample of 48 physics-varied flats
-/// (Table 3's vehicle, contact ±10 %, pad damping ±30 %, sleeper mass ±10 %; converged
-/// reference against the bank's mesh, the landing allowance beside; largest use 1.96 kN of
-/// the 2; `physics_gap 48 5`, 2026-11-28).
-pub const SHARED_MODEL_FORM: [f64; 3] = [0.02, 0.1, 2.0];
-
-/// The default of [`IdentificationParams::discretisation_dynamic_ratio`]: 95 % of the flats
-/// that lose contact reach 1.92 times the static wheel load on the bank's mesh (600 flats).
-pub const DISCRETISATION_DYNAMIC_RATIO: f64 = 1.9;
-
-/// The default of [`IdentificationParams::discretisation_fraction`]: the 90th percentile of
-/// |bank − converged| over the bank's step at the samples of flats that lose contact
-/// (0.46 over 600 flats, `studies/src/bin/discretisation.rs`), rounded up.
-pub const DISCRETISATION_FRACTION: f64 = 0.5;
 
 /// Parameter ranges of the model population (docs/model.md §5, paper Table 1).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -417,24 +383,30 @@ pub struct IdentificationParams {
     /// that point's thresholds for that prediction (0.5: the landing may fall half a sample
     /// from the bank's; measured against the converged reference: docs/identification.md,
     /// "Discretisation error"). Absent from a calibration file: the default.
-    #[serde(default = "default_discretisation_fraction")]
+    #[serde(default = "defaults::default_discretisation_fraction")]
     pub discretisation_fraction: f64,
     /// ... for the instances whose peak wheel–rail force reaches this many times the static
     /// wheel load (flats that lose contact and land; the others keep the table's mesh term).
-    #[serde(default = "default_discretisation_dynamic_ratio")]
+    #[serde(default = "defaults::default_discretisation_dynamic_ratio")]
     pub discretisation_dynamic_ratio: f64,
     /// One gain per sensor solved per instance at every point read (docs/model.md, "Shared
     /// gains"); `false`: the per-point thresholds alone. Absent: `true`.
-    #[serde(default = "default_shared_gains")]
+    #[serde(default = "defaults::default_shared_gains")]
     pub shared_gains: bool,
     /// The model form a pass leaves after its gain, `[fraction of |g|, of |g − g_ff|, kN]`
     /// (`studies/src/bin/physics_gap.rs`). Absent: the default.
-    #[serde(default = "default_shared_model_form")]
+    #[serde(default = "defaults::default_shared_model_form")]
     pub shared_model_form: [f64; 3],
     /// A refinement's simulations on the landings calibration at the L0 bounds
     /// (docs/identification.md, "Landings resolved"; 0–256). Absent: 0, none.
     #[serde(default)]
     pub refine_landings: usize,
+    /// κ of a refinement's local cells when it settles the L0 bounds (docs/identification.md,
+    /// "Bounds settled"): every simulated flat is judged for its own prediction widened by κ ×
+    /// the spread to its nearest simulated neighbours, and the answer is the union of the
+    /// surviving cells. Absent: the default.
+    #[serde(default = "defaults::default_refine_resolution")]
+    pub refine_resolution: f64,
     /// The wheels' roughness class (docs/detection.md, "Rough wheels"): `auto` (read from each
     /// pass's record, by its high-frequency level), `round`, or a class (`disc`, `composite`,
     /// `cast-iron`, `cast-iron-rough`). Its bound, simulated per bank, widens detection and the

@@ -13,7 +13,9 @@
 //! joint L0 width, how the passes related, and the time of a joint answer from the database;
 //! beside it the single-pass figures on the same passes. `GOOD=N`: N good bogies too (both
 //! wheels fused; how many joint answers are `none`). `REFINE=1`: every pass refined
-//! (`identify --refine`) and its refined cells stored and fused.
+//! (`identify --refine`) and its refined cells stored and fused. `PHYSICS=1`: the passes'
+//! model errors as physics, a wheel's vehicle, contact, track, load and tread shared by its
+//! passes ([`physics_pass`]; issue 63's wheel histories), instead of Eq. 1.
 use wheelflat_studies::study;
 
 use rayon::prelude::*;
@@ -54,6 +56,7 @@ fn main() {
     };
     let passes: usize = args.get(6).map_or(3, |s| s.parse().expect("PASSES"));
     let refine = std::env::var("REFINE").is_ok_and(|v| v == "1");
+    let physics = std::env::var("PHYSICS").is_ok_and(|v| v == "1");
     let truths = coverage::truths_within(&base, wheels, seed, 0.0);
     let phi = base.identification.phi;
     let (insp, urg) = (
@@ -89,15 +92,15 @@ fn main() {
         }
         let mut doc = base.document().clone();
         doc.run.speed_km_per_h = *speed;
-        let model = coverage::converged_model(&doc.check().expect("at speed"));
-        let syn = synthesize(
-            &model,
-            flat,
-            seed.wrapping_mul(1000)
-                .wrapping_add((w * passes + p) as u64),
-            true,
-        )
-        .expect("simulated");
+        let pass_seed = seed
+            .wrapping_mul(1000)
+            .wrapping_add((w * passes + p) as u64);
+        let syn = if physics {
+            physics_pass(&doc, *w, seed, flat, pass_seed)
+        } else {
+            let model = coverage::converged_model(&doc.check().expect("at speed"));
+            synthesize(&model, flat, pass_seed, true).expect("simulated")
+        };
         let part = cache.join(format!("w{w}-p{p}.csv.part"));
         std::fs::write(&part, &syn.csv).unwrap();
         std::fs::rename(&part, &csv).unwrap();
@@ -321,6 +324,41 @@ fn main() {
         ));
     }
     report("plain intersection of the passes' ranges", &judged);
+}
+
+/// `PHYSICS=1`: a wheel's pass with its model errors as physics (issue 63's wheel histories):
+/// the vehicle, contact and track drawn once a wheel (`study::physics`, as `physics_passes`
+/// draws them a pass), its car body ×[0.6, 1.4] and, every sixth wheel, both treads rough (a
+/// class drawn, one profile a wheel); a pass its own strike, speed and the measurement's own
+/// sources (sensor gains ±5 % and ±2 %, ±1 kN noise, drawn a pass), at the converged reference.
+fn physics_pass(
+    doc: &wheelflat::model::Calibration,
+    w: usize,
+    seed: u64,
+    flat: &Flat,
+    pass_seed: u64,
+) -> wheelflat::identify::synth::Synthetic {
+    use wheelflat::identify::synth::{synthesize_on, PassSurfaces};
+    use wheelflat::model::surface::SurfaceSpec;
+    let mut state = seed.wrapping_mul(7919).wrapping_add(w as u64) ^ 0x5EED_0FA1;
+    let (cal, _, class) = study::physics_draw(doc, &mut state);
+    let spec = SurfaceSpec {
+        wheel_roughness: w
+            .is_multiple_of(6)
+            .then_some((class, seed.wrapping_add(w as u64))),
+        ..SurfaceSpec::default()
+    };
+    let cal = cal.converged_reference().check().expect("physics in range");
+    let surfaces = PassSurfaces::of(&spec, &cal).expect("surfaces");
+    synthesize_on(
+        &cal,
+        Some(flat),
+        Some(&surfaces),
+        pass_seed,
+        true,
+        FieldNoise::TABLE,
+    )
+    .expect("simulated")
 }
 
 fn l0(f: &Flat, cal: &CheckedCalibration) -> f64 {

@@ -17,8 +17,7 @@
 use rayon::prelude::*;
 use std::path::PathBuf;
 use wheelflat::identify::synth::{synthesize_on, FieldNoise, PassSurfaces};
-use wheelflat::model::calibration::UncertaintyGroup;
-use wheelflat::model::surface::{RoughnessClass, SurfaceSpec};
+use wheelflat::model::surface::SurfaceSpec;
 use wheelflat::model::{Calibration, WheelPosition};
 use wheelflat_studies::study;
 
@@ -50,20 +49,8 @@ fn main() {
             return;
         }
         let mut state = seed.wrapping_mul(7919).wrapping_add(k as u64);
-        let mut cal = study::physics(&base, &mut state);
-        let body = 0.6 + 0.8 * study::splitmix_uniform(&mut state);
-        cal.vehicle.car_body_mass_kg *= body;
         // The measurement's own sources only: no model source drawn.
-        for u in &mut cal.identification.uncertainty {
-            if u.group == UncertaintyGroup::Model {
-                (u.min, u.max) = (0.0, 0.0);
-            }
-        }
-        let class = [
-            RoughnessClass::Disc,
-            RoughnessClass::Composite,
-            RoughnessClass::CastIron,
-        ][(study::splitmix_uniform(&mut state) * 3.0) as usize % 3];
+        let (cal, body, class) = study::physics_draw(&base, &mut state);
         let rough = k % 6 == 0 || spans.iter().any(|&(a, b)| (a..b).contains(&k));
         let spec = SurfaceSpec {
             wheel_roughness: rough.then_some((class, seed.wrapping_add(k as u64))),

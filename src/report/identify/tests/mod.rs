@@ -225,6 +225,9 @@ fn a_refined_answer_is_shown_and_read_back() {
         landings_simulated: 8,
         landings_removed: 3,
         landings_settled: Some([true, false]),
+        strategy: crate::identify::refine::RefineStrategy::Bounds,
+        bounds_settled: Some(true),
+        kept_l0_mm: Some([36.5, 41.0]),
     });
     let tmp = tempfile::tempdir().expect("tempdir");
     let files = write_identification_report(&id, tmp.path()).expect("write report");
