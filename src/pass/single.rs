@@ -85,24 +85,9 @@ pub struct Request<'a> {
     pub out: &'a Path,
 }
 
-/// One measurement's pass against `identifier`: identified, refined when asked,
-/// `identification.json` written into the request's folder, then stored in `db` (keyed by the
-/// SHA-256 of `file`, with how long it took from here to its result written) — a pass is
-/// stored only once its result is written.
-pub fn identify_measurement(
-    identifier: &Identifier,
-    measurement: Measurement,
-    file: &Path,
-    request: Request,
-    db: Option<&mut Db>,
-) -> Result<Pass, PassError> {
-    let started = std::time::Instant::now();
-    let id = identifier.identify(&measurement, request.sensors, request.extras)?;
-    finish(identifier, id, measurement, file, request, db, started)
-}
-
-/// The pass's answer refined when asked, written and stored ([`identify_measurement`]'s
-/// last steps).
+/// The pass's answer refined when asked, `identification.json` written into the request's
+/// folder, then stored in `db` (keyed by the SHA-256 of `file`, with how long it took from
+/// `started` to its result written) — a pass is stored only once its result is written.
 fn finish(
     identifier: &Identifier,
     mut id: Identification,
@@ -141,8 +126,9 @@ fn finish(
     })
 }
 
-/// [`identify_measurement`] against member `k` of `members` (as [`input::read_measurement`]
-/// picked it), with one more step for a family over loads: when member `k` refutes every
+/// One measurement's pass against member `k` of `members` (as [`input::read_measurement`]
+/// picked it): identified, refined when asked, written and stored ([`finish`]), with one more
+/// step for a family over loads: when member `k` refutes every
 /// instance, the pass is compared with the members next to it by load at its speed (the
 /// nearer first, [`Members::load_neighbours`]) and the first one with an answer is taken, the
 /// summary saying so. A load read a few per cent off (a light wagon's car body moving on its

@@ -64,7 +64,12 @@ fn identifier() -> Identifier {
 /// the refinement cannot rule out the deep flats that land either and narrows less on this
 /// landing-heavy narrow bank — bank-only 1.000 / 11.5 mm, refined 0.967 / 9.9 mm here
 /// (2026-11-26; the full bank's figures in docs/identification.md, "Discretisation error").
+///
+/// Since issue 63 the spread strategy is not the default; this test is in the acceptance tier
+/// (the default tier's `settling_the_bounds_narrows_the_answer_and_keeps_the_truth` runs the
+/// spread refinement on the same cases and checks its coverage).
 #[test]
+#[ignore = "acceptance: the spread refinement against the bank-only answer, 30 cases"]
 fn refinement_keeps_the_truth_and_narrows_the_answer() {
     let (dir, cal) = small_bank();
     let (insp, urg, _) = severity_limits(cal);

@@ -18,10 +18,10 @@ mod text;
 
 pub use super::effect::Effect;
 pub use super::wheel::WheelPosition;
-pub use maintenance::MaintenanceParams;
 pub use defaults::{
     DISCRETISATION_DYNAMIC_RATIO, DISCRETISATION_FRACTION, REFINE_RESOLUTION, SHARED_MODEL_FORM,
 };
+pub use maintenance::MaintenanceParams;
 pub use mesh::RefinedSpan;
 pub use roughness::{RailRoughness, WheelRoughness};
 
