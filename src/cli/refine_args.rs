@@ -10,7 +10,7 @@ pub(super) enum StrategyArg {
     /// At the cells that decide the L0 bounds, round by round, until the bounds stop moving
     /// (within 0.5 mm over two rounds) or the simulations are spent.
     Bounds,
-    /// Over every surviving cell in two rounds (the refinement before issue 63).
+    /// Over every surviving cell in two rounds (the earlier refinement).
     Spread,
 }
 

@@ -1,4 +1,4 @@
-//! The shared-gain stage of [`Identifier::judge`] (issue 56; docs/model.md §8, "Shared
+//! The shared-gain stage of [`Identifier::judge`] (docs/model.md §8, "Shared
 //! gains"): the survivors of the per-point thresholds judged again at every point the pass
 //! read — each PIP candidate and each envelope window's extremes — with one gain per sensor
 //! solved for each instance inside the table's relative bounds, and only what is truly per

@@ -1,4 +1,4 @@
-//! The site's setup on the site page (issue 57): the family in use (its speeds and loads), the
+//! The site's setup on the site page (docs/serve.md): the family in use (its speeds and loads), the
 //! calibration its banks were built from (voids, sensor gains, the family's load step) and the
 //! newest nightly check (`calibrate --check --report BANK/calibration-DATE.json`, as
 //! `scripts/regenerate-nightly.sh` writes it): when, and what drifted. Read from the bank

@@ -72,11 +72,12 @@ pub struct Refinement {
 #[serde(rename_all = "kebab-case")]
 pub enum RefineStrategy {
     /// Rounds sampling every surviving cell, the cells reaching deepest and shallowest in d
-    /// more often (the refinement before issue 63).
+    /// more often (the earlier refinement; docs/identification.md, "Refinement").
     #[default]
     Spread,
     /// Rounds sampling only the cells that decide the L0 bounds, every flat simulated kept in
-    /// the local population, until the bounds stop moving (issue 63).
+    /// the local population, until the bounds stop moving (docs/identification.md, "Bounds
+    /// settled").
     Bounds,
 }
 

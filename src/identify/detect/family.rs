@@ -90,12 +90,10 @@ impl Members {
                 f(a).total_cmp(&f(b))
             })
             .expect("a speed has members");
+        // Opened before the shapes are read: they take its metadata from it, not from disk.
         self.open_member(own)?;
         let shapes = self.shapes_at(&at_speed)?;
-        self.open[own]
-            .as_mut()
-            .expect("opened above")
-            .set_load_shapes(shapes.clone());
+        self.open_with_shapes(own, &shapes)?;
         // Nearest however far (diagnosis): the record is read at the member's speed, which
         // the diagnosis then questions.
         let at_member;
@@ -128,11 +126,7 @@ impl Members {
                 probability: crate::identify::detect::load::LOAD_INTERVAL_PROBABILITY,
                 car_body_mass_kg: load.car_body_mass_kg,
             })?;
-        self.open_member(k)?;
-        self.open[k]
-            .as_mut()
-            .expect("opened above")
-            .set_load_shapes(shapes);
+        self.open_with_shapes(k, &shapes)?;
         Ok(k)
     }
 
@@ -219,13 +213,23 @@ impl Members {
         out.sort_by(|&a, &b| (load(a) - own).abs().total_cmp(&(load(b) - own).abs()));
         let shapes = self.shapes_at(&at_speed)?;
         for &j in &out {
-            self.open_member(j)?;
-            self.open[j]
-                .as_mut()
-                .expect("opened above")
-                .set_load_shapes(shapes.clone());
+            self.open_with_shapes(j, &shapes)?;
         }
         Ok(out)
+    }
+
+    /// Opens member `j` (if it is not open yet) and gives it the load shapes of its speed.
+    fn open_with_shapes(
+        &mut self,
+        j: usize,
+        shapes: &Option<Arc<LoadShapes>>,
+    ) -> Result<(), IdentifyError> {
+        self.open_member(j)?;
+        self.open[j]
+            .as_mut()
+            .expect("opened above")
+            .set_load_shapes(shapes.clone());
+        Ok(())
     }
 
     /// Opens member `k` if it is not open yet (`k` as [`Family::member_for`] gives it).

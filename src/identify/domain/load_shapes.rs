@@ -3,7 +3,7 @@
 //! read and put on its member's load with the prediction **at its own load** — interpolated
 //! linearly in load between the two members around it — instead of the member's prediction
 //! scaled in proportion. A track is linear in the load except where a sleeper hangs: its gap
-//! closes under heavier wheels, and the pad over it changes shape, not only size (issue 57).
+//! closes under heavier wheels, and the pad over it changes shape, not only size (docs/calibration.md, "The family's load step").
 //!
 //! Beyond the band's ends the end member is scaled in proportion (what a single bank does).
 //! How far the linear interpolation may be from the response is measured on the family

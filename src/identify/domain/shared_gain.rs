@@ -1,4 +1,4 @@
-//! What a pass shares, solved per candidate (issue 56; docs/model.md §8, "Shared gains").
+//! What a pass shares, solved per candidate (docs/model.md §8, "Shared gains").
 //!
 //! The table's relative sources (train system, finite element model, mesh, track calibration,
 //! sensor accuracy, additional) are one value a pass shares at each sensor — one vehicle over

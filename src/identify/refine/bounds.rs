@@ -1,4 +1,4 @@
-//! The L0 bounds settled by simulation (issue 63; docs/identification.md, "Bounds settled"):
+//! The L0 bounds settled by simulation (docs/identification.md, "Bounds settled"):
 //! instead of spreading the simulations over every surviving cell, each round simulates only
 //! inside the cells that decide the answer's L0 bounds — the survivors whose cells reach
 //! deepest and shallowest in d (L0 = √(8 d R) follows d alone) — in the half of the cell that
@@ -17,12 +17,11 @@
 //! cell and nothing is lost between the bank-only answer and the first round.
 
 use super::judge::Judge;
-use super::landing::Round;
-use super::local::{ranges_of, sample_in_cells};
+use super::judge::Round;
+use super::local::{draw_in_cell, ranges_of, sample_in_cells};
 use super::points::{simulate_at, Comparison};
 use super::{Member, RefineRound};
 use crate::identify::answer::result::ParamRanges;
-use crate::identify::domain::uncertainty::uniform;
 use crate::identify::error::IdentifyError;
 use crate::model::calibration::PopulationParams;
 use crate::model::{Flat, Simulator, WheelPosition};
@@ -171,72 +170,25 @@ fn sample_beyond(
     pop: &PopulationParams,
     state: &mut u64,
 ) -> Vec<(Flat, [f64; 4], WheelPosition)> {
-    let deciding = |up: bool| -> Vec<&Member> {
-        let reach = |m: &Member| {
-            if up {
-                m.x[1] + m.half[1]
-            } else {
-                m.x[1] - m.half[1]
-            }
-        };
-        let hull =
-            kept.iter()
-                .map(|m| m.x[1])
-                .fold(if up { f64::MIN } else { f64::MAX }, |a, b| {
-                    if up {
-                        a.max(b)
-                    } else {
-                        a.min(b)
-                    }
-                });
+    // `sign` +1: the upper bound (reach x_d + half_d, past the deepest flat); −1: the lower.
+    let deciding = |sign: f64| -> Vec<&Member> {
+        let reach = |m: &Member| sign * (m.x[1] + sign * m.half[1]);
+        let hull = kept.iter().map(|m| sign * m.x[1]).fold(f64::MIN, f64::max);
         let mut by: Vec<&Member> = kept.to_vec();
-        by.sort_by(|a, b| {
-            let (ra, rb) = (reach(a), reach(b));
-            if up {
-                rb.total_cmp(&ra)
-            } else {
-                ra.total_cmp(&rb)
-            }
-        });
-        let beyond: Vec<&Member> = by
-            .iter()
-            .copied()
-            .filter(|m| if up { reach(m) > hull } else { reach(m) < hull })
-            .take(DECIDING_CELLS)
-            .collect();
-        if beyond.is_empty() {
-            by.into_iter().take(1).collect()
-        } else {
-            beyond
-        }
+        by.sort_by(|a, b| reach(b).total_cmp(&reach(a)));
+        let beyond = by.iter().take_while(|m| reach(m) > hull).count();
+        by.truncate(beyond.clamp(1, DECIDING_CELLS));
+        by
     };
-    let ends = [deciding(true), deciding(false)];
+    let ends = [deciding(1.0), deciding(-1.0)];
     (0..n)
         .map(|j| {
-            let up = j % 2 == 0;
-            let cells = &ends[usize::from(!up)];
-            let s = cells[(j / 2) % cells.len()];
-            loop {
-                let mut u = |t: usize, r: [f64; 2], from: f64, to: f64| {
-                    (s.x[t] + s.half[t] * (from + (to - from) * uniform(state))).clamp(r[0], r[1])
-                };
-                let l = u(0, pop.length_mm, -1.0, 1.0);
-                let d = if up {
-                    u(1, pop.depth_mm, 0.0, 1.0)
-                } else {
-                    u(1, pop.depth_mm, -1.0, 0.0)
-                };
-                let c = u(
-                    2,
-                    [pop.curvature_mm[0], pop.curvature_mm[1].min(0.499 * d)],
-                    -1.0,
-                    1.0,
-                );
-                let xp = u(3, pop.impact_position_m, -1.0, 1.0);
-                if let Ok(f) = Flat::from_mm(l, d, c, xp) {
-                    break (f.on_wheel(s.wheel), [l, d, c, xp], s.wheel);
-                }
-            }
+            // Even draws at the upper bound, in the deeper half; odd at the lower, the shallower.
+            let (cells, d_span) = match j % 2 {
+                0 => (&ends[0], [0.0, 1.0]),
+                _ => (&ends[1], [-1.0, 0.0]),
+            };
+            draw_in_cell(cells[(j / 2) % cells.len()], d_span, pop, state)
         })
         .collect()
 }

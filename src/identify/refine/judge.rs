@@ -3,14 +3,23 @@
 //! `shared_gains`, the shared-gain stage at every point read. Both ways of spending the
 //! simulations ([`super::RefineStrategy`]) judge each round with this one rule.
 
-use super::landing::Round;
 use super::local::local_cells;
 use super::points::Comparison;
 use super::Member;
+use crate::identify::domain::cells::Cells;
 use crate::identify::domain::falsify::{falsify, Resolution};
 use crate::identify::domain::shared_gain::keep_resolved;
 use crate::identify::domain::table_bounds::TableBounds;
 use crate::identify::identifier::Identifier;
+
+/// A round's local population: its members, their cells and predictions at every
+/// point, and which of them survive.
+pub(super) struct Round {
+    pub(super) members: Vec<Member>,
+    pub(super) cells: Cells,
+    pub(super) columns: Vec<Vec<f32>>,
+    pub(super) alive: Vec<u32>,
+}
 
 /// What a round is judged with: the identification's points and settings.
 pub(super) struct Judge<'a> {

@@ -1,4 +1,4 @@
-//! Landings resolved by simulation (issue 56; docs/identification.md, "Landings resolved"):
+//! Landings resolved by simulation (docs/identification.md, "Landings resolved"):
 //! after the rounds, the surviving flats that land — those judged with the bank mesh's
 //! landing allowance — are simulated again where it decides the answer, at the L0 bounds, on
 //! the landings calibration (`Calibration::with_converged_landings`: the rail refined around
@@ -8,9 +8,8 @@
 //! a flat is kept, a flat that keeps contact is reached (it needs no allowance) or the budget
 //! is spent (the rest keep their allowance).
 
+use super::judge::Round;
 use super::points::{simulate_at, Comparison};
-use super::Member;
-use crate::identify::domain::cells::Cells;
 use crate::identify::domain::falsify::{falsify, Resolution};
 use crate::identify::domain::shared_gain::keep_resolved;
 use crate::identify::domain::table_bounds::TableBounds;
@@ -28,15 +27,6 @@ pub(super) struct Checked {
     /// Whether each bound (lower, upper L0) was settled (a flat kept, or one that keeps
     /// contact reached) within the budget.
     pub(super) settled: [bool; 2],
-}
-
-/// The last round's local population: its members, their cells and predictions at every
-/// point, and which of them survive.
-pub(super) struct Round {
-    pub(super) members: Vec<Member>,
-    pub(super) cells: Cells,
-    pub(super) columns: Vec<Vec<f32>>,
-    pub(super) alive: Vec<u32>,
 }
 
 /// Checks `round`'s landing survivors from each L0 bound inwards (see the module docs) with at

@@ -18,23 +18,36 @@ pub(super) fn sample_in_cells(
     state: &mut u64,
 ) -> Vec<(Flat, [f64; 4], WheelPosition)> {
     (0..budget)
-        .map(|j| {
-            let s = &seeds[j % seeds.len()];
-            loop {
-                let mut u = |t: usize, r: [f64; 2]| {
-                    let v = s.x[t] + s.half[t] * (2.0 * uniform(state) - 1.0);
-                    v.clamp(r[0], r[1])
-                };
-                let l = u(0, pop.length_mm);
-                let d = u(1, pop.depth_mm);
-                let c = u(2, [pop.curvature_mm[0], pop.curvature_mm[1].min(0.499 * d)]);
-                let xp = u(3, pop.impact_position_m);
-                if let Ok(f) = Flat::from_mm(l, d, c, xp) {
-                    break (f.on_wheel(s.wheel), [l, d, c, xp], s.wheel);
-                }
-            }
-        })
+        .map(|j| draw_in_cell(&seeds[j % seeds.len()], [-1.0, 1.0], pop, state))
         .collect()
+}
+
+/// One new flat uniform in `s`'s cell, d drawn over `d_span` of it (in half-extents from its
+/// flat: `[-1, 1]` the whole cell, `[0, 1]` the deeper half), on `s`'s wheel, clamped to the
+/// population with c < d/2.
+pub(super) fn draw_in_cell(
+    s: &Member,
+    d_span: [f64; 2],
+    pop: &PopulationParams,
+    state: &mut u64,
+) -> (Flat, [f64; 4], WheelPosition) {
+    loop {
+        let mut u = |t: usize, r: [f64; 2], [from, to]: [f64; 2]| {
+            let v = s.x[t] + s.half[t] * (from + (to - from) * uniform(state));
+            v.clamp(r[0], r[1])
+        };
+        let l = u(0, pop.length_mm, [-1.0, 1.0]);
+        let d = u(1, pop.depth_mm, d_span);
+        let c = u(
+            2,
+            [pop.curvature_mm[0], pop.curvature_mm[1].min(0.499 * d)],
+            [-1.0, 1.0],
+        );
+        let xp = u(3, pop.impact_position_m, [-1.0, 1.0]);
+        if let Ok(f) = Flat::from_mm(l, d, c, xp) {
+            break (f.on_wheel(s.wheel), [l, d, c, xp], s.wheel);
+        }
+    }
 }
 
 /// The cells of a local population: its [`NEIGHBOURS`] nearest members on the same wheel, in

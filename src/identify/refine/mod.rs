@@ -214,7 +214,7 @@ pub fn refine(
 
 /// [`refine`], with `anchors` — flats (L, d, c, X_p in mm, mm, mm, m; the wheel) simulated
 /// into the first population beside the bank's — for studies that seed it where the truth
-/// lies (the floor of issue 63: `studies/src/bin/floor_study.rs`). With the spread strategy
+/// lies (the floor of docs/identification.md, "Bounds settled": `studies/src/bin/floor_study.rs`). With the spread strategy
 /// the anchors are among the first round's seeds.
 pub fn refine_from(
     identifier: &Identifier,
@@ -323,7 +323,7 @@ pub fn refine_from(
     }
     let mut state = settings.seed ^ 0x5DEE_CE66_D1CE_4E5B;
     // The last round's population, for the landing check.
-    let mut last: Option<landing::Round> = None;
+    let mut last: Option<judge::Round> = None;
     match settings.strategy {
         RefineStrategy::Spread => {
             for round in 0..settings.rounds {
