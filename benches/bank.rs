@@ -20,6 +20,7 @@ fn options(instances: usize, shard_size: usize) -> GenerateOptions {
         machine_shard: None,
         format: StorageFormat::default(),
         simulate_missing: true,
+        tables: false,
     }
 }
 

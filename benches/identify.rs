@@ -26,6 +26,7 @@ fn bench_identify(c: &mut Criterion) {
                 machine_shard: None,
                 format: StorageFormat::default(),
                 simulate_missing: true,
+                tables: false,
             };
             bank::generate(&cal, &d, &opts, &Quiet).unwrap();
             d

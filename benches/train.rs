@@ -25,6 +25,7 @@ fn bench_train(c: &mut Criterion) {
                 machine_shard: None,
                 format: StorageFormat::default(),
                 simulate_missing: true,
+                tables: false,
             };
             bank::generate(&cal, &d, &opts, &Quiet).unwrap();
             d

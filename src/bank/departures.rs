@@ -217,19 +217,29 @@ pub(crate) fn path(bank: &Bank, weights: &[f64]) -> PathBuf {
 /// The stored table of the predictions through the average `weights` when it passes its
 /// checks; else computed from the bank (about a second for 50,000 instances; the averaged
 /// one a few) and stored for the next process. A version directory that cannot be written
-/// only costs that time again.
+/// only costs that time again. `bank generate` builds it with the bank
+/// ([`super::derived`]), so a first pass finds it.
 pub(crate) fn load_or_compute(bank: &Bank, weights: &[f64]) -> Result<Departures, BankError> {
+    load_or_build(bank, weights, super::cache::Store::BestEffort).map(|(d, _)| d)
+}
+
+/// [`load_or_compute`] with the store's failure handled as `store` says; also whether the
+/// table was computed.
+pub(crate) fn load_or_build(
+    bank: &Bank,
+    weights: &[f64],
+    store: super::cache::Store,
+) -> Result<(Departures, bool), BankError> {
     let meta = bank.metadata();
     let p = path(bank, weights);
     if let Ok(bytes) = std::fs::read(&p) {
         if let Ok(d) = decode(&bytes, &meta.bank_id, bank.instances(), meta.sensors.len()) {
-            return Ok(d);
+            return Ok((d, false));
         }
     }
     let d = compute(bank, weights)?;
-    // A read-only bank is still usable: the table is a cache.
-    let _ = crate::atomic::write_atomically(&p, &encode(&meta.bank_id, &d));
-    Ok(d)
+    store.write(&p, &encode(&meta.bank_id, &d))?;
+    Ok((d, true))
 }
 
 #[cfg(test)]

@@ -9,6 +9,8 @@
 //! DIR/v-<bank id>/shard-00000-of-00020.parquet
 //! DIR/v-<bank id>/...
 //! DIR/v-<bank id>/neighbours.bin   the instances' neighbour graph (bank::neighbours)
+//! DIR/v-<bank id>/departures*.bin, roughness.json, out-of-round.bin   tables a pass needs
+//!                                  (bank::derived; caches, checked as read)
 //! DIR/v-<bank id>/layout.bin       where each column's values lie (bank::layout; plain banks)
 //! DIR/v-<bank id>/manifest.json    written last, with every file's size and SHA-256
 //! ```
@@ -49,6 +51,10 @@ pub struct GenerateOptions {
     pub format: StorageFormat,
     /// When false, missing shard files are an error instead of being simulated (`bank merge`).
     pub simulate_missing: bool,
+    /// Also build the tables a pass needs ([`super::derived`]) before `CURRENT` points at the
+    /// version (the command line always does; a study's or a test's bank may leave them to the
+    /// first pass that needs one).
+    pub tables: bool,
 }
 
 /// What a generate call did.
@@ -280,6 +286,9 @@ pub fn generate(
             && version.join(MANIFEST).is_file()
         {
             let mut upgraded = add_missing_aux(&version, cal, opts)?;
+            if opts.tables {
+                upgraded |= super::derived::build(&version, observer)? > 0;
+            }
             // CURRENT states the manifest's hash (rewritten after the manifest, if it changed,
             // or if CURRENT predates the hash).
             let manifest = std::fs::read(version.join(MANIFEST)).map_err(io_err(&version))?;
@@ -448,6 +457,10 @@ pub fn generate(
     };
     let json = serde_json::to_string_pretty(&manifest).expect("manifest serialises");
     write_file_atomically(&version.join(MANIFEST), json.as_bytes())?;
+    // The tables a pass needs, before the pointer: a first pass finds them.
+    if opts.tables {
+        super::derived::build(&version, observer)?;
+    }
     write_file_atomically(
         &current_path,
         super::version::current_text(&version_name, json.as_bytes()).as_bytes(),

@@ -10,16 +10,21 @@
 //! - [`reader`]: memory-mapped reading of projected columns; verification.
 //! - [`info`]: a bank's size and parameter ranges.
 //! - [`neighbours`]: the instances' neighbour graph, built at generation, stored with the bank.
+//! - [`derived`]: the tables a pass needs (departures, roughness, out of round), built with
+//!   the bank.
 //! - [`layout`]: where every column's values lie in the shards, so a reader skips the footers.
 //! - [`version`]: `CURRENT`, the manifest and the files beside the shards, checked as read.
 //! - [`verify`]: every file checked against the manifest in full.
 //! - [`lock`]: one writer at a time per bank directory; [`prune`]: old versions removed.
 
 mod band;
+mod cache;
 pub(crate) mod departures;
+pub(crate) mod derived;
 pub mod family;
 pub mod family_write;
 mod fold;
+mod gather;
 pub mod generate;
 pub(crate) mod info;
 pub(crate) mod layout;
@@ -38,6 +43,7 @@ pub(crate) mod simulate;
 mod speeds;
 pub(crate) mod verify;
 pub(crate) mod version;
+mod warm;
 pub(crate) mod writer;
 
 pub use generate::{generate, GenerateOptions, Outcome};

@@ -10,6 +10,9 @@ pub trait GenerateObserver: Sync {
     fn instance_done(&self);
     /// A shard file was written.
     fn file_written(&self, name: &str);
+    /// A table derived from the bank (`bank::derived`) was built: what it is, its file, the
+    /// seconds it took.
+    fn table_built(&self, _what: &str, _file: &str, _seconds: f64) {}
 }
 
 /// An observer that reports nothing.

@@ -249,13 +249,23 @@ pub(crate) fn decode(
 }
 
 /// The stored basis when it passes its checks; else simulated from the bank's calibration and
-/// stored for the next process (a read-only bank only costs that time again).
+/// stored for the next process (a read-only bank only costs that time again). `bank generate`
+/// builds it with the bank ([`super::derived`]), so a first pass finds it.
 pub fn load_or_compute(bank: &Bank) -> Result<OutOfRoundBasis, BankError> {
+    load_or_build(bank, super::cache::Store::BestEffort).map(|(b, _)| b)
+}
+
+/// [`load_or_compute`] with the store's failure handled as `store` says; also whether the
+/// basis was simulated.
+pub(crate) fn load_or_build(
+    bank: &Bank,
+    store: super::cache::Store,
+) -> Result<(OutOfRoundBasis, bool), BankError> {
     let meta = bank.metadata();
     let p = path(bank);
     if let Ok(bytes) = std::fs::read(&p) {
         if let Ok(b) = decode(&bytes, &meta.bank_id, Some(&meta.sensors)) {
-            return Ok(b);
+            return Ok((b, false));
         }
     }
     let cal = meta
@@ -267,8 +277,8 @@ pub fn load_or_compute(bank: &Bank) -> Result<OutOfRoundBasis, BankError> {
             source,
         })?;
     let b = compute(&cal, &meta.sensors)?;
-    let _ = crate::atomic::write_atomically(&p, &encode(&meta.bank_id, &b));
-    Ok(b)
+    store.write(&p, &encode(&meta.bank_id, &b))?;
+    Ok((b, true))
 }
 
 #[cfg(test)]

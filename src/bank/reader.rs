@@ -35,6 +35,56 @@ pub(super) struct ShardFile {
     /// The parsed footer; `None` when the bank is read through its layout.
     pub(super) meta: Option<ArrowReaderMetadata>,
     pub(super) rows: usize,
+    /// The columns whose values this process has checked against the layout's CRC-32.
+    pub(super) checked: Checked,
+}
+
+/// Which columns of a shard this process has checked against their CRC-32 (a bank read
+/// through its layout). A version's files are never rewritten in place (every writer writes
+/// a new file and renames it), so a column is checked at its first read in a process, not at
+/// every read: `watch`'s next pass, or a pass's second read of a column, reads it unchecked
+/// (docs/performance.md, "Identification speed"). `bank verify` checks every byte.
+#[derive(Default)]
+pub(super) struct Checked(std::sync::OnceLock<Vec<std::sync::atomic::AtomicU64>>);
+
+// A copy of a bank checks its columns again at their first read (conservative and rare).
+impl Clone for Checked {
+    fn clone(&self) -> Checked {
+        Checked::default()
+    }
+}
+
+impl std::fmt::Debug for Checked {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let n: u32 = self.0.get().map_or(0, |b| {
+            b.iter()
+                .map(|w| w.load(std::sync::atomic::Ordering::Relaxed).count_ones())
+                .sum()
+        });
+        write!(f, "Checked({n} columns)")
+    }
+}
+
+impl Checked {
+    fn bits(&self, columns: usize) -> &[std::sync::atomic::AtomicU64] {
+        self.0.get_or_init(|| {
+            (0..columns.div_ceil(64))
+                .map(|_| std::sync::atomic::AtomicU64::new(0))
+                .collect()
+        })
+    }
+
+    /// Whether column `col` of `columns` was checked already.
+    fn has(&self, col: usize, columns: usize) -> bool {
+        self.bits(columns)[col / 64].load(std::sync::atomic::Ordering::Acquire) & (1 << (col % 64))
+            != 0
+    }
+
+    /// Notes column `col` checked.
+    fn note(&self, col: usize, columns: usize) {
+        self.bits(columns)[col / 64]
+            .fetch_or(1 << (col % 64), std::sync::atomic::Ordering::Release);
+    }
 }
 
 impl ShardFile {
@@ -174,6 +224,7 @@ impl Bank {
                             bytes,
                             meta: None,
                             rows: f.rows,
+                            checked: Checked::default(),
                         })
                     })
                     .collect::<Result<Vec<_>, BankError>>()?;
@@ -204,6 +255,7 @@ impl Bank {
                             bytes,
                             meta: Some(meta),
                             rows: f.rows,
+                            checked: Checked::default(),
                         })
                     })
                     .collect::<Result<_, BankError>>()?;
@@ -212,6 +264,7 @@ impl Bank {
                     bytes,
                     meta: Some(meta),
                     rows: first.rows,
+                    checked: Checked::default(),
                 };
                 (bank_meta, std::iter::once(head).chain(rest).collect())
             }
@@ -386,21 +439,13 @@ impl Bank {
         }
         if let Some(layout) = &self.layout {
             // Slices of the mapped files: a copy per column and shard.
-            let check = |col: usize| {
-                if col >= layout.widths.len() || layout.widths[col] != 4 || col == 0 {
-                    return Err(BankError::NotForceColumn { column: col });
-                }
-                Ok(())
-            };
-            sorted.iter().try_for_each(|&c| check(c))?;
             self.files
                 .par_iter()
                 .zip(slots.par_iter_mut())
                 .enumerate()
-                .try_for_each(|(s, (file, file_slots))| {
+                .try_for_each(|(s, (_, file_slots))| {
                     for (slot, &col) in file_slots.iter_mut().zip(&sorted) {
-                        let bytes = layout.values(s, col, 0..file.rows, &file.bytes, &file.path)?;
-                        f32_values(bytes, slot);
+                        f32_values(self.column_values(layout, s, col)?, slot);
                     }
                     Ok::<(), BankError>(())
                 })?;
@@ -416,6 +461,26 @@ impl Bank {
             }
         }
         Ok(())
+    }
+
+    /// The value bytes of stored force column `col` in shard `s` (every row), checked against the layout's CRC-32 at the column's first read in this process.
+    pub(super) fn column_values<'a>(
+        &'a self,
+        layout: &Layout,
+        s: usize,
+        col: usize,
+    ) -> Result<&'a [u8], BankError> {
+        let file = &self.files[s];
+        let columns = layout.widths.len();
+        if col >= columns || layout.widths[col] != 4 || col == 0 {
+            return Err(BankError::NotForceColumn { column: col });
+        }
+        if file.checked.has(col, columns) {
+            return Ok(layout.values_unchecked(s, col, 0..file.rows, &file.bytes));
+        }
+        let bytes = layout.values(s, col, 0..file.rows, &file.bytes, &file.path)?;
+        file.checked.note(col, columns);
+        Ok(bytes)
     }
 
     /// The footer path of [`Bank::read_columns_flat`]: every shard's projected columns decoded

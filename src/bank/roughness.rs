@@ -334,6 +334,16 @@ pub(crate) fn decode(text: &str, bank_id: &str) -> Result<RoughnessTable, String
 /// missing rows computed with the bank's calibration (a few seconds) and the table stored
 /// again. A version directory that cannot be written only costs that time again.
 pub fn load_or_compute(bank: &Bank, rail: RailClass) -> Result<RoughnessTable, BankError> {
+    load_or_build(bank, rail, super::cache::Store::BestEffort).map(|(t, _)| t)
+}
+
+/// [`load_or_compute`] with the store's failure handled as `store` says; also whether the
+/// rail's rows were simulated.
+pub(crate) fn load_or_build(
+    bank: &Bank,
+    rail: RailClass,
+    store: super::cache::Store,
+) -> Result<(RoughnessTable, bool), BankError> {
     let meta = bank.metadata();
     let p = path(bank);
     let mut table = std::fs::read_to_string(&p)
@@ -356,9 +366,9 @@ pub fn load_or_compute(bank: &Bank, rail: RailClass) -> Result<RoughnessTable, B
                 })?;
         table.rows.retain(|r| r.rail != rail);
         table.rows.extend(compute_rows(&cal, &meta.sensors, rail)?);
-        let _ = crate::atomic::write_atomically(&p, encode(&table).as_bytes());
+        store.write(&p, encode(&table).as_bytes())?;
     }
-    Ok(table)
+    Ok((table, !complete))
 }
 
 #[cfg(test)]

@@ -244,6 +244,12 @@ pub(super) struct GenerateArgs {
     /// written by `calibrate`).
     #[arg(long, value_name = "FROM:TO:STEP|auto")]
     pub loads: Option<String>,
+    /// Leave the tables a pass needs (departures, roughness, out of round: ~15 s on 2 cores)
+    /// to the first pass that needs one, instead of building them before `CURRENT` points at
+    /// the bank: for a bank that answers few passes (a study, a test). A serving bank should
+    /// have them (docs/bank.md, "Built with the bank").
+    #[arg(long)]
+    pub defer_tables: bool,
 }
 
 impl GenerateArgs {
@@ -262,6 +268,7 @@ impl GenerateArgs {
             encoding: EncodingArg::Plain,
             speeds: None,
             loads: None,
+            defer_tables: false,
         }
     }
 }

@@ -35,6 +35,7 @@ pub(super) fn generate(a: &GenerateArgs, simulate_missing: bool) -> Result<()> {
             encoding: a.encoding.into(),
         },
         simulate_missing,
+        tables: !a.defer_tables,
     };
     let threads = a
         .threads
@@ -81,7 +82,14 @@ pub(super) fn generate(a: &GenerateArgs, simulate_missing: bool) -> Result<()> {
     progress.finish();
     let outcome = outcome.with_context(|| format!("bank {}", a.out.display()))?;
     let secs = started.elapsed().as_secs_f64();
-    report_outcome(a, &a.out, &outcome, secs, threads);
+    report_outcome(
+        a,
+        &a.out,
+        &outcome,
+        secs,
+        progress.tables_seconds(),
+        threads,
+    );
     Ok(())
 }
 
@@ -116,13 +124,14 @@ fn generate_family(
     progress.finish();
     let outcome = outcome.with_context(|| format!("bank family {}", a.out.display()))?;
     for (name, o, secs) in &outcome.members {
-        report_outcome(a, &a.out.join(name), o, *secs, threads);
+        report_outcome(a, &a.out.join(name), o, *secs, 0.0, threads);
     }
     let secs = started.elapsed().as_secs_f64();
     if outcome.manifest_written {
         println!(
-            "bank family complete: {} ({band_words}) in {secs:.1} s; {} pins each member's version",
+            "bank family complete: {} ({band_words}) in {secs:.1} s (the tables a pass needs {:.1} s of it); {} pins each member's version",
             members(count),
+            progress.tables_seconds(),
             a.out.join(FAMILY_FILE).display()
         );
     } else {
@@ -133,14 +142,28 @@ fn generate_family(
     Ok(())
 }
 
-/// Says what a generate call did for one bank.
-fn report_outcome(a: &GenerateArgs, dir: &Path, outcome: &Outcome, secs: f64, threads: usize) {
-    let took = format!(" in {secs:.1} s");
+/// Says what a generate call did for one bank (`secs` in all, `tables_s` of them building the
+/// tables a pass needs).
+fn report_outcome(
+    a: &GenerateArgs,
+    dir: &Path,
+    outcome: &Outcome,
+    secs: f64,
+    tables_s: f64,
+    threads: usize,
+) {
+    let sim_s = (secs - tables_s).max(0.0);
+    let took = format!(" in {sim_s:.1} s");
+    let tables = if tables_s > 0.0 {
+        format!("; the tables a pass needs {tables_s:.1} s")
+    } else {
+        String::new()
+    };
     match outcome {
         Outcome::UpToDate { version, upgraded } => {
             if *upgraded {
                 println!(
-                    "bank {} is up to date ({}); added or renewed what this wheelflat stores beside the shards (neighbour graph, column layout, manifest hash in CURRENT) ({secs:.1} s)",
+                    "bank {} is up to date ({}); added or renewed what this wheelflat stores beside the shards (neighbour graph, column layout, manifest hash in CURRENT, the tables a pass needs) ({secs:.1} s)",
                     dir.display(),
                     version.display()
                 );
@@ -158,10 +181,10 @@ fn report_outcome(a: &GenerateArgs, dir: &Path, outcome: &Outcome, secs: f64, th
             resumed,
         } => {
             println!(
-                "bank complete: {} instances in {} ({simulated} simulated{took}, {:.0} instances/s on {threads} threads; {resumed} kept from an earlier run); CURRENT -> {}",
+                "bank complete: {} instances in {} ({simulated} simulated{took}, {:.0} instances/s on {threads} threads; {resumed} kept from an earlier run{tables}); CURRENT -> {}",
                 a.instances,
                 version.display(),
-                *simulated as f64 / secs.max(1e-9),
+                *simulated as f64 / sim_s.max(1e-9),
                 version.file_name().map(|n| n.to_string_lossy()).unwrap_or_default()
             );
         }

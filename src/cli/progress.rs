@@ -16,6 +16,8 @@ pub(super) struct Progress {
     /// When the current bank (a family's current member) started.
     started: Mutex<Instant>,
     last_log: Mutex<Instant>,
+    /// Seconds spent building the tables a pass needs (`bank::derived`), all banks together.
+    tables_s: Mutex<f64>,
 }
 
 impl Progress {
@@ -27,6 +29,7 @@ impl Progress {
             total: AtomicUsize::new(0),
             started: Mutex::new(Instant::now()),
             last_log: Mutex::new(Instant::now()),
+            tables_s: Mutex::new(0.0),
         }
     }
 
@@ -50,6 +53,11 @@ impl Progress {
         if let Some(b) = &self.bar {
             b.finish_and_clear();
         }
+    }
+
+    /// Seconds spent building the tables a pass needs so far.
+    pub fn tables_seconds(&self) -> f64 {
+        *self.tables_s.lock().unwrap_or_else(|e| e.into_inner())
     }
 
     fn log_line(&self) -> String {
@@ -105,6 +113,15 @@ impl GenerateObserver for Progress {
         match &self.bar {
             Some(b) => b.println(format!("wrote {name}")),
             None => eprintln!("bank: wrote {name}"),
+        }
+    }
+
+    fn table_built(&self, what: &str, file: &str, seconds: f64) {
+        *self.tables_s.lock().unwrap_or_else(|e| e.into_inner()) += seconds;
+        let line = format!("built {file}: {what} ({seconds:.1} s)");
+        match &self.bar {
+            Some(b) => b.println(line),
+            None => eprintln!("bank: {line}"),
         }
     }
 }

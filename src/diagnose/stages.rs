@@ -296,6 +296,8 @@ pub(super) fn add_and_identify_again(
         machine_shard: None,
         format: crate::bank::StorageFormat::default(),
         simulate_missing: true,
+        // A study bank: what its passes need is computed when first needed.
+        tables: false,
     };
     crate::bank::generate(&with, dir, &gen, a.observer)?;
     clock.lap("local bank");

@@ -246,7 +246,8 @@ impl Identifier {
         Ok(())
     }
 
-    // The tables loaded when a pass first needs them, kept for the next.
+    // The tables loaded when a pass first needs them, kept for the next (built with the bank,
+    // bank::derived; computed here only for a bank without them).
 
     /// The bank's departures table of comparison `c` (read from its file, or computed and
     /// stored on first use; kept for the next pass).

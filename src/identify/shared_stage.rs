@@ -144,7 +144,7 @@ impl Identifier {
         let (cand_steps, env_steps) = match shares {
             Some(_) => {
                 let env: Vec<&[f32]> = env_columns.iter().map(Vec::as_slice).collect();
-                self.allowance_steps(&at, &predictions, &env, hw)?
+                self.allowance_steps(&at, &predictions, &env, hw, Some(&[k as u32]))?
             }
             None => (Vec::new(), Vec::new()),
         };

@@ -308,23 +308,20 @@ impl Identifier {
         let shares = self
             .discretisation()
             .filter(|_| z.comparison == crate::identify::input::compare::Comparison::Samples);
-        // The steps at every candidate when the shared stage reads them all (the EIP's among
-        // them, at their candidate index), else at the EIP alone (at their order).
+        // The steps at the EIP for every instance (falsification judges them all); the shared
+        // stage's at every candidate are read below for the survivors alone.
         let shared = s.shared_gains;
-        let stepped: Vec<usize> = if shared {
-            (0..measured.len()).collect()
-        } else {
-            order.clone()
+        let cand = |&i: &usize| &z.cands[i];
+        let at_of = |points: &[usize]| -> Vec<(usize, usize)> {
+            points
+                .iter()
+                .map(|i| (z.used[cand(i).series].1, cand(i).sample))
+                .collect()
         };
-        let (cand_steps, env_steps) = match shares {
+        let (eip_steps, env_steps) = match shares {
             Some(_) => {
-                let cand = |&i: &usize| &z.cands[i];
-                let at: Vec<(usize, usize)> = stepped
-                    .iter()
-                    .map(|i| (z.used[cand(i).series].1, cand(i).sample))
-                    .collect();
-                let g: Vec<&[f32]> = stepped.iter().map(|&i| read.predictions[i]).collect();
-                self.allowance_steps(&at, &g, &read.env_columns, hw)?
+                let g: Vec<&[f32]> = order.iter().map(|&i| read.predictions[i]).collect();
+                self.allowance_steps(&at_of(order), &g, &read.env_columns, hw, None)?
             }
             None => (Vec::new(), Vec::new()),
         };
@@ -340,11 +337,7 @@ impl Identifier {
             .iter()
             .enumerate()
             .map(|(j, &i)| Point {
-                discretisation: falsify::Discretisation::of(
-                    shares,
-                    &cand_steps,
-                    if shared { i } else { j },
-                ),
+                discretisation: falsify::Discretisation::of(shares, &eip_steps, j),
                 ..point(i)
             })
             .collect();
@@ -361,6 +354,20 @@ impl Identifier {
         let cms_idx = falsify(&method_points, self.resolution());
         laps.lap("falsify");
         let cms_idx = if shared {
+            let all: Vec<usize> = (0..measured.len()).collect();
+            let cand_steps = match shares {
+                Some(_) => {
+                    let (steps, _) = self.allowance_steps(
+                        &at_of(&all),
+                        &read.predictions,
+                        &[],
+                        hw,
+                        Some(&cms_idx),
+                    )?;
+                    steps
+                }
+                None => Vec::new(),
+            };
             let input = SharedInput {
                 sensors: z.cands.iter().map(|c| c.series).collect(),
                 predictions: &read.predictions,

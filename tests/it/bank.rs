@@ -31,7 +31,10 @@ fn generate_with_threads(
 #[test]
 fn same_inputs_give_identical_bytes_with_one_or_two_threads() {
     let cal = bank_calibration();
-    let opts = options(48, 16);
+    let opts = GenerateOptions {
+        tables: true,
+        ..options(48, 16)
+    };
     let a = tempfile::tempdir().unwrap();
     let b = tempfile::tempdir().unwrap();
     generate_with_threads(&cal, a.path(), &opts, 1);
@@ -39,8 +42,9 @@ fn same_inputs_give_identical_bytes_with_one_or_two_threads() {
     let (sa, sb) = (files(a.path(), &[]), files(b.path(), &[]));
     assert_eq!(
         sa.len(),
-        3 + 5,
-        "3 shard files + neighbour graph + column layout + manifest + CURRENT + writer lock"
+        3 + 5 + 4,
+        "3 shard files + neighbour graph + column layout + manifest + CURRENT + writer lock + \
+         the tables a pass needs (two departures tables, roughness, out of round)"
     );
     assert!(sa == sb, "banks differ between 1 and 2 threads");
 }
@@ -290,6 +294,54 @@ fn corrupt_or_truncated_files_are_named_never_a_panic() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("not a wheelflat bank"), "{err}");
+}
+
+/// The tables a pass needs (`bank::derived`): built with the bank, before `CURRENT` points at
+/// it, so a first pass of every kind reads them and writes nothing; one lost or damaged is
+/// built again, the same bytes, by the next `generate`.
+#[test]
+fn a_bank_is_built_with_the_tables_a_pass_needs_and_a_first_pass_builds_nothing() {
+    use wheelflat::identify::{Comparison, Identifier};
+    let cal = common::narrow_calibration();
+    let dir = tempfile::tempdir().unwrap();
+    let opts = GenerateOptions {
+        tables: true,
+        ..options(40, 20)
+    };
+    let Outcome::Complete { version, .. } = generate_with_threads(&cal, dir.path(), &opts, 2)
+    else {
+        panic!()
+    };
+    let tables = [
+        "departures.bin",
+        "departures-binomial5.bin",
+        "roughness.json",
+        "out-of-round.bin",
+    ];
+    for t in tables {
+        assert!(version.join(t).is_file(), "{t} is built with the bank");
+    }
+    let built = files(dir.path(), &[]);
+    let id = Identifier::new(Bank::open(dir.path()).unwrap(), cal.identification.clone()).unwrap();
+    id.departures(Comparison::Samples).unwrap();
+    id.departures(Comparison::Binomial5).unwrap();
+    id.roughness_table().unwrap();
+    id.out_of_round_basis().unwrap();
+    assert!(
+        built == files(dir.path(), &[]),
+        "a first pass found every table: nothing written"
+    );
+    // One lost, one damaged: the next generate builds them again, byte for byte.
+    std::fs::remove_file(version.join("out-of-round.bin")).unwrap();
+    let dep = version.join("departures.bin");
+    let mut bytes = std::fs::read(&dep).unwrap();
+    bytes[40] ^= 0x55;
+    std::fs::write(&dep, &bytes).unwrap();
+    assert!(matches!(
+        generate_with_threads(&cal, dir.path(), &opts, 2),
+        Outcome::UpToDate { upgraded: true, .. }
+    ));
+    assert!(built == files(dir.path(), &[]), "rebuilt byte for byte");
 }
 
 /// A complete 40-instance bank of `cal` in a temporary folder, and its version directory.

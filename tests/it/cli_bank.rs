@@ -47,6 +47,18 @@ fn generate_info_verify_and_a_corrupt_file_is_named() {
             .arg(&bank),
     );
     assert!(out.contains("bank complete: 24 instances"), "{out}");
+    // Built with the tables a pass needs (docs/bank.md, "Built with the bank").
+    assert!(out.contains("the tables a pass needs"), "{out}");
+    let version = std::fs::read_to_string(bank.join("CURRENT")).unwrap();
+    let version = bank.join(version.lines().next().unwrap());
+    for t in [
+        "departures.bin",
+        "departures-binomial5.bin",
+        "roughness.json",
+        "out-of-round.bin",
+    ] {
+        assert!(version.join(t).is_file(), "{t}");
+    }
     let info = stdout_of(wheelflat().args(["bank", "info"]).arg(&bank));
     assert!(
         info.contains("instances       24 in 3 shard files of 8"),
@@ -104,6 +116,7 @@ fn a_killed_run_resumes_and_ends_byte_identical() {
     let args = [
         "bank",
         "generate",
+        "--defer-tables",
         "--instances",
         "120",
         "--shard-size",
@@ -175,7 +188,7 @@ fn a_killed_run_resumes_and_ends_byte_identical() {
 fn slurm_array_then_merge_equals_a_single_run() {
     let tmp = tempfile::tempdir().unwrap();
     let cal = calibration_file(tmp.path());
-    let extra = ["--instances", "30", "--shard-size", "5"];
+    let extra = ["--instances", "30", "--shard-size", "5", "--defer-tables"];
     let single = tmp.path().join("single");
     wheelflat()
         .args(["bank", "generate"])

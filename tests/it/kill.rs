@@ -24,6 +24,7 @@ fn a_run_killed_at_any_moment_resumes_to_the_same_bytes_and_never_shows_a_partia
         cmd.args([
             "bank",
             "generate",
+            "--defer-tables",
             "--instances",
             "240",
             "--shard-size",

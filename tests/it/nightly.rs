@@ -90,7 +90,8 @@ fn a_pad_that_drops_is_found_by_one_nights_traffic_and_the_bank_follows() {
     let bank = tmp.path().join("bank");
     let generate = |toml: &Path| {
         let mut c = Command::new(wheelflat_path());
-        c.args(["bank", "generate", "--instances", "1200", "--calibration"])
+        c.args(["bank", "generate", "--defer-tables", "--instances", "1200"])
+            .arg("--calibration")
             .arg(toml)
             .arg("--out")
             .arg(&bank)

@@ -173,6 +173,7 @@ fn watch_identifies_every_file_once_against_one_bank_while_the_bank_is_regenerat
         .args([
             "bank",
             "generate",
+            "--defer-tables",
             "--instances",
             "240",
             "--shard-size",

@@ -38,6 +38,7 @@ fn a_second_generator_is_refused_while_the_first_writes() {
         .args([
             "bank",
             "generate",
+            "--defer-tables",
             "--instances",
             "600",
             "--shard-size",
@@ -63,7 +64,7 @@ fn a_second_generator_is_refused_while_the_first_writes() {
     }
     let small_run = || {
         wheelflat()
-            .args(["bank", "generate", "--instances", "20"])
+            .args(["bank", "generate", "--defer-tables", "--instances", "20"])
             .arg("--calibration")
             .arg(&cal_b)
             .arg("--out")

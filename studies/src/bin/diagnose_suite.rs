@@ -35,6 +35,7 @@ fn main() -> anyhow::Result<()> {
             machine_shard: None,
             format: StorageFormat::default(),
             simulate_missing: true,
+            tables: false,
         };
         bank::generate(&cal, &bank_dir, &opts, &Quiet)?;
     }

@@ -80,6 +80,11 @@ pub fn options(instances: usize, shard_size: usize) -> GenerateOptions {
         machine_shard: None,
         format: StorageFormat::default(),
         simulate_missing: true,
+        // The tables a pass needs are left to the first pass that needs them (as a bank of an
+        // earlier wheelflat is served): most test banks answer few passes, and their build
+        // (~80 simulations) would cost more than it saves. Built with the bank and checked in
+        // `bank::a_bank_is_built_with_the_tables_a_pass_needs_and_a_first_pass_builds_nothing`.
+        tables: false,
     }
 }
 
