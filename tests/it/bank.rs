@@ -31,10 +31,7 @@ fn generate_with_threads(
 #[test]
 fn same_inputs_give_identical_bytes_with_one_or_two_threads() {
     let cal = bank_calibration();
-    let opts = GenerateOptions {
-        tables: true,
-        ..options(48, 16)
-    };
+    let opts = options(48, 16);
     let a = tempfile::tempdir().unwrap();
     let b = tempfile::tempdir().unwrap();
     generate_with_threads(&cal, a.path(), &opts, 1);
@@ -42,9 +39,9 @@ fn same_inputs_give_identical_bytes_with_one_or_two_threads() {
     let (sa, sb) = (files(a.path(), &[]), files(b.path(), &[]));
     assert_eq!(
         sa.len(),
-        3 + 5 + 4,
-        "3 shard files + neighbour graph + column layout + manifest + CURRENT + writer lock + \
-         the tables a pass needs (two departures tables, roughness, out of round)"
+        3 + 5,
+        "3 shard files + neighbour graph + column layout + manifest + CURRENT + writer lock \
+         (the tables a pass needs: their own test, on 2 threads then 1)"
     );
     assert!(sa == sb, "banks differ between 1 and 2 threads");
 }
@@ -297,8 +294,8 @@ fn corrupt_or_truncated_files_are_named_never_a_panic() {
 }
 
 /// The tables a pass needs (`bank::derived`): built with the bank, before `CURRENT` points at
-/// it, so a first pass of every kind reads them and writes nothing; one lost or damaged is
-/// built again, the same bytes, by the next `generate`.
+/// it, so a first pass of every kind reads them and writes nothing; lost or damaged, they are
+/// built again by the next `generate`, the same bytes on one thread as on two.
 #[test]
 fn a_bank_is_built_with_the_tables_a_pass_needs_and_a_first_pass_builds_nothing() {
     use wheelflat::identify::{Comparison, Identifier};
@@ -331,17 +328,23 @@ fn a_bank_is_built_with_the_tables_a_pass_needs_and_a_first_pass_builds_nothing(
         built == files(dir.path(), &[]),
         "a first pass found every table: nothing written"
     );
-    // One lost, one damaged: the next generate builds them again, byte for byte.
-    std::fs::remove_file(version.join("out-of-round.bin")).unwrap();
-    let dep = version.join("departures.bin");
-    let mut bytes = std::fs::read(&dep).unwrap();
-    bytes[40] ^= 0x55;
-    std::fs::write(&dep, &bytes).unwrap();
+    // Two lost, two damaged: the next generate, on one thread, builds them again byte for byte.
+    for t in ["out-of-round.bin", "departures-binomial5.bin"] {
+        std::fs::remove_file(version.join(t)).unwrap();
+    }
+    for t in ["departures.bin", "roughness.json"] {
+        let mut bytes = std::fs::read(version.join(t)).unwrap();
+        bytes[40] ^= 0x55;
+        std::fs::write(version.join(t), &bytes).unwrap();
+    }
     assert!(matches!(
-        generate_with_threads(&cal, dir.path(), &opts, 2),
+        generate_with_threads(&cal, dir.path(), &opts, 1),
         Outcome::UpToDate { upgraded: true, .. }
     ));
-    assert!(built == files(dir.path(), &[]), "rebuilt byte for byte");
+    assert!(
+        built == files(dir.path(), &[]),
+        "rebuilt byte for byte, on one thread as on two"
+    );
 }
 
 /// A complete 40-instance bank of `cal` in a temporary folder, and its version directory.
