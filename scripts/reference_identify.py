@@ -12,7 +12,9 @@ What it implements (the Rust source it follows, docs/identification.md for the m
 1. the bank: `CURRENT` or a version directory, `manifest.json`, the shards memory-mapped with
    pyarrow, the `wheelflat.bank` JSON of the first shard's footer (sensor axes, flat-free
    template, calibration with the identification settings), the parameter columns, and the
-   stored neighbour graph `neighbours.bin` (src/bank/{reader,schema,neighbours}.rs; a bank
+   stored neighbour graph `neighbours.bin` (src/bank/{reader,schema,neighbours}.rs; a folded
+   bank, the site population's default, read as the Rust reader presents it, src/bank/fold.rs;
+   a bank
    without one, or with one of the earlier format, gets the graph searched by brute force,
    slowly). The footers are read through
    pyarrow: a `layout.bin` the bank may carry (src/bank/layout.rs) is not needed;

@@ -9,6 +9,7 @@ may carry (src/bank/layout.rs, the Rust reader's way around those footers) is no
 
 import hashlib
 import json
+import math
 import sys
 from concurrent.futures import ThreadPoolExecutor
 
@@ -83,11 +84,44 @@ class Bank:
         self.template = [np.asarray(t, dtype=np.float32) for t in self.meta["flat_free_kn"]]
         cal = self.meta["calibration"]
         self.population = cal["population"]
+        self._fold_view(cal, version / files[0]["name"])
         watch.lap("open footers")
         self.params = self._read_parameters()
         watch.lap("read parameters")
         self.neighbours = self._read_neighbours()
         watch.lap("neighbour graph")
+
+    def _fold_view(self, cal, path):
+        """A folded bank (src/bank/fold.rs): its shards store N instances with X_p over one
+        sleeper bay and the windows of the pads up to K sleepers before each sensor; it is read
+        as N·(K+1) instances over the calibration's own sensors, instance k·N + i being stored
+        instance i shifted by k whole bays."""
+        self.n_stored = self.n
+        self.fold = None
+        self._presented = {}
+        if not self.population.get("fold_to_one_bay"):
+            return
+        spacing = cal["track"]["sleeper_spacing_m"]
+        self.revolution_m = 2.0 * math.pi * cal["vehicle"]["wheel_radius_m"]
+        self.spacing_m = spacing
+        shifts = math.ceil(self.revolution_m / spacing - 1e-9) - 1
+        stored = self.axes
+        pads = cal["sensors"]["pad"]
+        self.fold = []
+        for a, pad in enumerate(pads):
+            if a >= len(stored) or (stored[a]["name"], stored[a]["sleeper"]) != (pad["name"], pad["sleeper"]):
+                raise Failure(f"{path}: folded bank: stored axis {a} is not sensor `{pad['name']}`")
+            per = []
+            for k in range(shifts + 1):
+                at = [i for i, x in enumerate(stored) if x["sleeper"] == pad["sleeper"] - k]
+                if pad["sleeper"] < k or not at:
+                    raise Failure(f"{path}: folded bank: no stored window {k} sleepers before `{pad['name']}`")
+                per.append(at[0])
+            self.fold.append(per)
+        self.stored_axes = stored
+        self.axes = stored[:len(pads)]
+        self.template = self.template[:len(pads)]
+        self.n = self.n_stored * (shifts + 1)
 
     def _read(self, columns):
         """`columns` for every instance, shard files in parallel: {name: array in row order}."""
@@ -100,19 +134,43 @@ class Bank:
     def _read_parameters(self):
         p = self._read(["instance"] + PARAMETER_COLUMNS)
         p["flat_wheel"] = p["flat_wheel"].astype(np.uint8)
+        if self.fold is not None:
+            # Each shift's copy, X_p moved k bays on (back by a revolution past its end).
+            factor = len(self.fold[0])
+            x0 = self.population["impact_position_m"][0]
+            xs = []
+            for k in range(factor):
+                x = p["impact_position_m"] + k * self.spacing_m
+                xs.append(np.where(x >= x0 + self.revolution_m, x - self.revolution_m, x))
+            p = {c: np.tile(v, factor) for c, v in p.items()}
+            p["instance"] = np.arange(self.n, dtype=np.uint32)
+            p["impact_position_m"] = np.concatenate(xs)
         return p
 
     def read_samples(self, columns):
-        """Sample columns (names) as one float32 matrix, one row per column, instance order."""
+        """Sample columns (names, of `column_name`) as one float32 matrix, one row per column,
+        instance order; a folded bank's column is its stored columns at shifts 0..K in turn."""
         out = np.empty((len(columns), self.n), dtype=np.float32)
         offsets = np.concatenate([[0], np.cumsum(self.rows)])
+        if self.fold is None:
+            stored = [[c] for c in columns]
+        else:
+            stored = []
+            for c in columns:
+                axis, k = self._presented[c]
+                stored.append([sample_column(self.stored_axes[s]["name"], k, self.stored_axes[s]["samples"])
+                               for s in self.fold[axis]])
+        names = sorted({c for per in stored for c in per})
+        ns = self.n_stored
 
         def fill(i):
-            table = self.files[i].read(columns=columns, use_threads=False)
+            table = self.files[i].read(columns=names, use_threads=False)
             if table.num_rows != self.rows[i]:
                 raise Failure(f"shard {i} holds {table.num_rows} rows, the manifest says {self.rows[i]}")
-            for j, c in enumerate(columns):
-                out[j, offsets[i]:offsets[i + 1]] = table.column(c).to_numpy()
+            values = {c: table.column(c).to_numpy() for c in names}
+            for j, per in enumerate(stored):
+                for shift, c in enumerate(per):
+                    out[j, shift * ns + offsets[i]:shift * ns + offsets[i + 1]] = values[c]
 
         list(self.pool.map(fill, range(len(self.files))))
         return out
@@ -154,4 +212,7 @@ class Bank:
 
     def column_name(self, axis, k):
         a = self.axes[axis]
-        return sample_column(a["name"], k, a["samples"])
+        name = sample_column(a["name"], k, a["samples"])
+        if self.fold is not None:
+            self._presented[name] = (axis, k)
+        return name

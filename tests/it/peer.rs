@@ -198,3 +198,111 @@ fn the_python_peer_selects_the_same_points_and_keeps_the_same_instances() {
         );
     }
 }
+
+/// The peer reads a folded bank (the site population's, the default since issue 31) as the
+/// Rust reader presents it: N·(K+1) instances, each shift's X_p moved on by whole bays, each
+/// sensor's window the pad k sleepers before it. Every presented instance's X_p, L and wheel,
+/// and the predictions at three samples of every sensor, bit for bit. Before 2026-11-29 the
+/// peer refused such a bank at its neighbour graph.
+#[test]
+fn the_python_peer_reads_a_folded_bank_as_the_reader_does() {
+    let (python, missing) = python_with("pyarrow, numpy");
+    if let Some(why) = missing {
+        assert!(
+            !under_ci(),
+            "under CI the Python peer check must run, but `{python}` cannot import pyarrow and \
+             numpy: {why}"
+        );
+        let _ = writeln!(
+            std::io::stderr(),
+            "the_python_peer_reads_a_folded_bank_as_the_reader_does skipped: `{python}` cannot \
+             import pyarrow and numpy"
+        );
+        return;
+    }
+    let (bank_dir, _) = common::cached_bank(
+        "peer-folded-40",
+        || wheelflat::model::Calibration::default().check().unwrap(),
+        40,
+        20,
+    );
+    let bank = wheelflat::bank::Bank::open(bank_dir).unwrap();
+    assert!(bank.fold_factor() > 1, "the default calibration folds");
+    let p = bank.read_parameters().unwrap();
+    let axes = bank.metadata().sensors.clone();
+    let picks: Vec<(usize, usize)> = (0..axes.len())
+        .flat_map(|a| [(a, 0), (a, axes[a].samples / 2), (a, axes[a].samples - 1)])
+        .collect();
+    let cols: Vec<usize> = picks
+        .iter()
+        .map(|&(a, k)| bank.sample_index(a, k))
+        .collect();
+    let values = bank.read_columns(&cols).unwrap();
+
+    let scripts = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts");
+    let code = format!(
+        r#"
+import json, sys
+sys.dont_write_bytecode = True
+sys.path.insert(0, {scripts:?})
+from pathlib import Path
+from reference.bank import Bank
+class Laps:
+    def lap(self, *a):
+        pass
+b = Bank(Path({bank:?}), 2, Laps())
+picks = json.loads(sys.argv[1])
+v = b.read_samples([b.column_name(a, k) for a, k in picks])
+print(json.dumps({{
+    "n": int(b.n),
+    "x": [float(x) for x in b.params["impact_position_m"]],
+    "l": [float(x) for x in b.params["length_mm"]],
+    "w": [int(x) for x in b.params["flat_wheel"]],
+    "v": [[float(x) for x in row] for row in v],
+}}))
+"#,
+        scripts = scripts.to_string_lossy(),
+        bank = bank_dir.to_string_lossy(),
+    );
+    let out = std::process::Command::new(&python)
+        .args(["-c", &code, &serde_json::to_string(&picks).unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let peer: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let floats = |v: &serde_json::Value| -> Vec<f64> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    assert_eq!(peer["n"].as_u64(), Some(bank.instances() as u64));
+    assert_eq!(
+        floats(&peer["x"]),
+        p.impact_position_m,
+        "X_p of every instance"
+    );
+    assert_eq!(floats(&peer["l"]), p.length_mm, "L of every instance");
+    let wheels: Vec<u8> = peer["w"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_u64().unwrap() as u8)
+        .collect();
+    assert_eq!(wheels, p.flat_wheel, "the flat's wheel of every instance");
+    for (j, column) in values.iter().enumerate() {
+        let rust: Vec<f64> = column.iter().map(|&g| f64::from(g)).collect();
+        assert_eq!(
+            floats(&peer["v"][j]),
+            rust,
+            "sensor {} sample {}",
+            axes[picks[j].0].name,
+            picks[j].1
+        );
+    }
+}
