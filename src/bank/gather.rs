@@ -56,19 +56,21 @@ impl Bank {
                 Some(s)
             })
             .collect();
-        let place = |i: usize| {
-            let s = starts.partition_point(|&st| st <= i) - 1;
-            (s, i - starts[s])
-        };
-        for (j, o) in out.chunks_mut(m.max(1)).enumerate().take(indices.len()) {
-            for (v, &k) in o.iter_mut().zip(instances) {
+        // Each instance's (shift, shard, row), found once for every column.
+        let places: Vec<(usize, usize, usize)> = instances
+            .iter()
+            .map(|&k| {
                 let (i, shift) = match &self.fold {
                     Some(fold) => fold.split(k as usize, n_stored),
                     None => (k as usize, 0),
                 };
-                let col = stored[j * factor + shift];
-                let (s, row) = place(i);
-                let bytes = self.column_values(layout, s, col)?;
+                let s = starts.partition_point(|&st| st <= i) - 1;
+                (shift, s, i - starts[s])
+            })
+            .collect();
+        for (j, o) in out.chunks_mut(m.max(1)).enumerate().take(indices.len()) {
+            for (v, &(shift, s, row)) in o.iter_mut().zip(&places) {
+                let bytes = self.column_values(layout, s, stored[j * factor + shift])?;
                 f32_values(&bytes[row * 4..row * 4 + 4], std::slice::from_mut(v));
             }
         }
