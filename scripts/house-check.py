@@ -19,7 +19,7 @@ MAX_LINES = 600
 # The library's layers, top first (docs/architecture.md, "Layers").
 LAYERS = [
     ["serve"],
-    ["pass", "alarm"],
+    ["pass", "alarm", "fleet"],
     ["report"],
     ["diagnose"],
     ["audit", "train", "history", "site"],

@@ -19,6 +19,7 @@ pub mod atomic;
 pub mod audit;
 pub mod bank;
 pub mod diagnose;
+pub mod fleet;
 pub mod history;
 pub mod identify;
 pub mod model;

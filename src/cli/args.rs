@@ -101,6 +101,14 @@ pub(super) enum Command {
     /// that need action first, every wheel, the passes of the last hours, a wheel's trend, a
     /// pass's report, each page with its JSON (on 127.0.0.1:8080 unless told otherwise).
     Serve(super::serve::ServeArgs),
+    /// Send a site's results database on to the fleet store (PostgreSQL): at least once,
+    /// idempotent, in order; `--follow` keeps shipping (docs/fleet.md).
+    Ship(super::ship::ShipArgs),
+    /// Enter what the workshop measured on a pulled wheelset (or a CSV of findings) into the
+    /// fleet store; `--table`: how the passes before each finding fared, per site and fleet.
+    Found(super::found::FoundArgs),
+    /// The fleet store's owner: migrate its schema, add a site or a login, the sites' health.
+    Fleet(super::fleet::FleetCommandArgs),
     /// Audit one model instance: re-simulate it and compare with the bank; with a measurement,
     /// show why it is kept or falsified.
     Audit(AuditArgs),
@@ -408,6 +416,11 @@ pub(super) struct WatchArgs {
     pub refine: RefineArgs,
     #[command(flatten)]
     pub store: DbArgs,
+    /// Also ship the results database to this fleet store (PostgreSQL), on a thread of its
+    /// own every 5 s: the site answers on while the store is unreachable and catches up
+    /// after (docs/fleet.md). Needs --db.
+    #[command(flatten)]
+    pub fleet: super::fleet::FleetArgs,
 }
 
 // `audit`.

@@ -12,8 +12,12 @@ use wheelflat::report::history::{draw_trend, HistoryReport};
 #[derive(Debug, Args)]
 pub(super) struct HistoryArgs {
     /// The results database `identify`, `train` and `watch` wrote with `--db`.
-    #[arg(long)]
-    pub db: PathBuf,
+    #[arg(long, required_unless_present = "fleet", conflicts_with = "fleet")]
+    pub db: Option<PathBuf>,
+    /// Or every site's passes from the fleet store (a reader's login): the wheel across
+    /// sites, each pass judged by its own site's bank, a site that disagrees named.
+    #[command(flatten)]
+    pub fleet: super::fleet::FleetArgs,
     /// The wheel, `<bogie_id>/leading` or `<bogie_id>/trailing`; without it, every wheel the
     /// database knows.
     #[arg(long)]
@@ -106,7 +110,11 @@ pub(super) fn store_failure(db: &mut Db, measurement: &Path, e: &anyhow::Error) 
 
 /// `wheelflat history`.
 pub(super) fn run(a: &HistoryArgs) -> Result<()> {
-    let db = Db::open_existing(&a.db)?;
+    if let Some(target) = a.fleet.target()? {
+        return across(a, &target);
+    }
+    let path = a.db.as_deref().expect("clap requires --db or --fleet");
+    let db = Db::open_existing(path)?;
     let cal = super::load_calibration(a.calibration.as_deref())?;
     let (inspect, urgent) = (
         cal.identification.inspect_l0_mm,
@@ -116,7 +124,7 @@ pub(super) fn run(a: &HistoryArgs) -> Result<()> {
         let wheels = db.wheels()?;
         println!(
             "{}: {} passes, {} named wheels",
-            a.db.display(),
+            path.display(),
             db.pass_count()?,
             wheels.len()
         );
@@ -139,33 +147,96 @@ pub(super) fn run(a: &HistoryArgs) -> Result<()> {
     if passes.is_empty() {
         anyhow::bail!(
             "{}: no pass of wheel `{wheel}` (wheels are `<bogie_id>/leading` or `…/trailing`; `wheelflat history --db {}` lists them)",
-            a.db.display(),
-            a.db.display()
+            path.display(),
+            path.display()
         );
     }
-    let rule = match a.rule {
-        Rule::Robust => FusionRule::Robust,
-        Rule::All => FusionRule::All,
-    };
     let wheels: Vec<_> = passes.iter().map(|p| p.wheel.clone()).collect();
-    let joint = fuse(&wheels, rule, cal.identification.phi, urgent, inspect);
+    let joint = fuse(
+        &wheels,
+        a.rule.fusion(),
+        cal.identification.phi,
+        urgent,
+        inspect,
+    );
     let ratios = [
         cal.identification.inspect_dynamic_ratio,
         cal.identification.urgent_dynamic_ratio,
     ];
     let report = HistoryReport::new(wheel, &passes, joint, [[inspect, urgent], ratios]);
     print!("{}", report.text());
+    write_out(a, &report)
+}
+
+impl Rule {
+    fn fusion(self) -> FusionRule {
+        match self {
+            Rule::Robust => FusionRule::Robust,
+            Rule::All => FusionRule::All,
+        }
+    }
+}
+
+/// `history --fleet`: the wheel's passes at every site, fused; each pass names its site.
+fn across(a: &HistoryArgs, target: &wheelflat::fleet::FleetTarget) -> Result<()> {
+    let cal = super::load_calibration(a.calibration.as_deref())?;
+    let rules = &cal.identification;
+    let Some(wheel) = &a.wheel else {
+        anyhow::bail!("history --fleet needs --wheel ID (the fleet page lists the wheels: `wheelflat serve --fleet`)");
+    };
+    let mut reader = wheelflat::fleet::FleetReader::connect(target)?;
+    let window = Window {
+        last: a.last as usize,
+        hours: a.hours,
+    };
+    let passes = reader.wheel_passes(wheel, window)?;
+    if passes.is_empty() {
+        anyhow::bail!("{}: no pass of wheel `{wheel}` at any site", target.shown());
+    }
+    let across = wheelflat::fleet::across_sites(
+        &passes,
+        a.rule.fusion(),
+        rules.phi,
+        rules.urgent_l0_mm,
+        rules.inspect_l0_mm,
+    );
+    // Each pass named by its site in the report's lines.
+    let named: Vec<_> = passes
+        .iter()
+        .map(|p| {
+            let mut s = p.pass.clone();
+            s.measurement = format!("{}: {}", p.site, s.measurement);
+            s
+        })
+        .collect();
+    let ratios = [rules.inspect_dynamic_ratio, rules.urgent_dynamic_ratio];
+    let report = HistoryReport::new(
+        wheel,
+        &named,
+        across.joint.clone(),
+        [[rules.inspect_l0_mm, rules.urgent_l0_mm], ratios],
+    );
+    print!(
+        "{}",
+        wheelflat::fleet::words::passes_text(wheel, &passes, &across.joint)
+    );
+    print!("{}", wheelflat::fleet::words::across_text(&across));
+    write_out(a, &report)
+}
+
+/// `--out`: `history.json` and the trend figure.
+fn write_out(a: &HistoryArgs, report: &HistoryReport) -> Result<()> {
     if let Some(out) = &a.out {
         super::create_output_folder(out)?;
         let json = out.join("history.json");
         super::write_file(
             &json,
-            serde_json::to_string_pretty(&report)
+            serde_json::to_string_pretty(report)
                 .expect("a history serialises")
                 .as_bytes(),
         )?;
         let png = out.join("history.png");
-        draw_trend(&report, &png).with_context(|| format!("cannot draw {}", png.display()))?;
+        draw_trend(report, &png).with_context(|| format!("cannot draw {}", png.display()))?;
         println!("wrote {} and {}", json.display(), png.display());
     }
     Ok(())

@@ -7,7 +7,8 @@
 //! - one file per command or group: [`calibration`], [`simulate`], [`bank`] (generate,
 //!   merge, info, verify, audit), [`synth`], [`identify`] (identify, report, compare),
 //!   [`watch`], [`train`], [`audit`], [`diagnose`], [`calibrate`], [`demo`], [`serve`],
-//!   [`alarms`].
+//!   [`alarms`]; the fleet store: [`fleet`] (`--fleet` and the owner's commands), [`ship`],
+//!   [`found`].
 
 mod alarms;
 mod args;
@@ -21,12 +22,15 @@ mod demo_site;
 mod diagnose;
 mod family;
 mod flat_args;
+mod fleet;
 mod format_args;
+mod found;
 mod history;
 mod identify;
 mod progress;
 mod refine_args;
 mod serve;
+mod ship;
 mod simulate;
 mod surface_args;
 mod synth;
@@ -100,6 +104,9 @@ pub fn main() -> ExitCode {
         Command::History(a) => history::run(&a),
         Command::Alarms(a) => alarms::run(&a),
         Command::Serve(a) => serve::run(&a),
+        Command::Ship(a) => ship::run(&a),
+        Command::Found(a) => found::run(&a),
+        Command::Fleet(a) => fleet::run(&a),
         Command::Demo {
             out,
             bank,

@@ -10,8 +10,12 @@ use wheelflat::serve::{Settings, Token};
 #[derive(Debug, Args)]
 pub(super) struct ServeArgs {
     /// The results database `identify`, `train` and `watch` write with `--db` (read-only).
-    #[arg(long)]
-    pub db: PathBuf,
+    #[arg(long, required_unless_present = "fleet", conflicts_with = "fleet")]
+    pub db: Option<PathBuf>,
+    /// Or the fleet store (a reader's login): wheels needing action at every site, each
+    /// site's health and shipping lag, a wheel across sites, the workshop's findings.
+    #[command(flatten)]
+    pub fleet: super::fleet::FleetArgs,
     /// The bank or family the site identifies with: the site page shows its version (and
     /// when it cannot be read).
     #[arg(long)]
@@ -40,8 +44,20 @@ pub(super) fn run(a: &ServeArgs) -> Result<()> {
         }
         None => None,
     };
-    let settings = Settings::new(a.db.clone(), a.bank.clone(), &cal.identification, token);
-    let db = a.db.display().to_string();
+    if let Some(target) = a.fleet.target()? {
+        let shown = target.shown().to_string();
+        let settings = wheelflat::serve::FleetSettings::new(target, &cal.identification, token);
+        wheelflat::serve::run_fleet(settings, a.listen, |bound| {
+            println!(
+                "serving the fleet store {shown} on http://{bound}/ (read-only; Ctrl-C stops)"
+            );
+        })?;
+        println!("stopped");
+        return Ok(());
+    }
+    let path = a.db.clone().expect("clap requires --db or --fleet");
+    let db = path.display().to_string();
+    let settings = Settings::new(path, a.bank.clone(), &cal.identification, token);
     wheelflat::serve::run(settings, a.listen, |bound| {
         println!("serving {db} on http://{bound}/ (read-only; Ctrl-C stops)");
     })?;

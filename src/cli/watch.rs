@@ -247,7 +247,7 @@ fn move_into(path: &Path, dir: &Path) -> Result<PathBuf> {
 
 /// The time of a log line: RFC 3339 in UTC with milliseconds, e.g.
 /// `2026-11-26T15:40:12.345Z` (readable, sortable, and parsed by every log tool).
-fn stamp() -> String {
+pub(super) fn stamp() -> String {
     chrono::Utc::now().to_rfc3339_opts(chrono::SecondsFormat::Millis, true)
 }
 
@@ -294,6 +294,40 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
                     )
                 });
             Some(thread.context("cannot start the alarms' sender")?)
+        }
+        _ => None,
+    };
+    let ship_stop = Arc::new(AtomicBool::new(false));
+    let fleet = a.fleet.target()?;
+    if fleet.is_some() && a.store.db.is_none() {
+        anyhow::bail!("--fleet ships the results database: give --db too");
+    }
+    let shipping = match (&fleet, &a.store.db) {
+        (Some(target), Some(path)) if !a.once => {
+            let (mut shipper, path, stop) = (
+                wheelflat::fleet::Shipper::new(target.clone()),
+                path.clone(),
+                Arc::clone(&ship_stop),
+            );
+            println!(
+                "{} shipping to {} every {} s",
+                stamp(),
+                target.shown(),
+                super::ship::DEFAULT_EVERY_S
+            );
+            let thread = std::thread::Builder::new()
+                .name("ship".into())
+                .spawn(move || {
+                    super::ship::follow(
+                        &mut shipper,
+                        &path,
+                        wheelflat::fleet::ship::DEFAULT_BATCH,
+                        Duration::from_secs(super::ship::DEFAULT_EVERY_S),
+                        &stop,
+                        |l| println!("{} {l}", stamp()),
+                    )
+                });
+            Some(thread.context("cannot start the shipper")?)
         }
         _ => None,
     };
@@ -405,6 +439,35 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
                 sender: sender.and_then(Arc::into_inner),
             }
             .send_once(|| format!("{} ", stamp()))?;
+        }
+    }
+    ship_stop.store(true, Ordering::Relaxed);
+    if let Some(thread) = shipping {
+        let _ = thread.join();
+    }
+    // `--once`: one shipping round at the end; an unreachable store is said, not an error
+    // (the passes are in the site's database for the next round).
+    if let (true, Some(target), Some(path)) = (a.once, fleet, &a.store.db) {
+        let mut shipper = wheelflat::fleet::Shipper::new(target);
+        let t = std::time::Instant::now();
+        match wheelflat::history::Db::open_read_only(path)
+            .map_err(wheelflat::fleet::FleetError::from)
+            .and_then(|db| {
+                let site = shipper.connect()?;
+                Ok((
+                    site,
+                    shipper.round(&db, wheelflat::fleet::ship::DEFAULT_BATCH, |_| {})?,
+                ))
+            }) {
+            Ok((site, s)) => println!(
+                "{} {}",
+                stamp(),
+                super::ship::shipped_line(&site, &s, t.elapsed())
+            ),
+            Err(e) => println!(
+                "{} cannot ship: {e}; the site keeps its passes for the next round",
+                stamp()
+            ),
         }
     }
     println!("{} stopping after {seen} measurements", stamp());

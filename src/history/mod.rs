@@ -14,9 +14,10 @@ pub(crate) mod view;
 mod write;
 
 pub use alarms::{AlarmBody, AlarmCounts, AlarmRow, AlarmStatus, DriftLine, BODY_SCHEMA};
+pub use db::export::{ExportAlarm, ExportFailure, ExportPass, ExportWheel, NewestIds};
 pub use db::failures::{Failure, FailureKind};
 pub use db::tally::Tally;
-pub use db::{Db, DbError, StoredPass, Window};
+pub use db::{Db, DbError, StoredPass, Window, SCHEMA_VERSION};
 pub use fuse::{fuse, Agreement, FusionRule, Joint};
 pub use record::{Claim, PassMeta, PassRecord, Space, WheelPass};
 pub use rules::{AlarmPlan, Rule};

@@ -10,6 +10,9 @@ pub enum ServeError {
     /// The results database is missing, not wheelflat's, newer, or unreadable.
     #[error(transparent)]
     Db(#[from] DbError),
+    /// The fleet store cannot be read (`serve --fleet`).
+    #[error(transparent)]
+    Fleet(#[from] crate::fleet::FleetError),
     /// A non-local address without a token.
     #[error("refusing to listen on {addr} without a token: the pages name the fleet's wheels and their flats. Give one with --token-file (at least 16 characters), or listen on 127.0.0.1 behind a reverse proxy that authenticates (docs/serve.md)")]
     Exposed {

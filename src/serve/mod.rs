@@ -10,6 +10,7 @@
 //!   the site page's family, calibration and newest nightly check.
 //! - [`layout`]: the page around them, the class colours, the refresh without reloading.
 //! - [`drawn`]: a pass's report drawn on request when its command wrote only the JSON.
+//! - [`fleet`], [`fleet_pages`]: `serve --fleet`, the fleet store's pages (docs/fleet.md).
 //! - [`alarms`]: the alarms' counts and newest rows; [`metrics`]: `/metrics`, the Prometheus
 //!   text format (also served alone by `watch --metrics`: [`run_metrics`]).
 //!
@@ -21,6 +22,8 @@ mod alarms;
 mod counts;
 mod drawn;
 mod error;
+mod fleet;
+mod fleet_pages;
 mod layout;
 mod metrics;
 mod pass;
@@ -32,6 +35,8 @@ mod wheel;
 
 pub use access::{check_listen, Token};
 pub use error::ServeError;
+pub use fleet::FleetSettings;
+pub use fleet_pages::fleet_router;
 pub use routes::{metrics_router, router};
 pub use state::Settings;
 
@@ -46,6 +51,25 @@ pub fn run(
 ) -> Result<(), ServeError> {
     check_listen(listen, settings.token.is_some())?;
     let app = router(settings)?;
+    serve_app(app, listen, ready)
+}
+
+/// Serves the fleet store's pages (`serve --fleet`) on `listen` until SIGINT or SIGTERM.
+pub fn run_fleet(
+    settings: FleetSettings,
+    listen: SocketAddr,
+    ready: impl FnOnce(SocketAddr),
+) -> Result<(), ServeError> {
+    check_listen(listen, settings.token.is_some())?;
+    let app = fleet_router(settings)?;
+    serve_app(app, listen, ready)
+}
+
+fn serve_app(
+    app: axum::Router,
+    listen: SocketAddr,
+    ready: impl FnOnce(SocketAddr),
+) -> Result<(), ServeError> {
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()

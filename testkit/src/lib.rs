@@ -8,4 +8,5 @@
 
 pub mod coverage;
 pub mod landing;
+pub mod pg;
 pub mod suite;

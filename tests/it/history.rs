@@ -10,7 +10,7 @@ use wheelflat::history::{Db, DbError, Window};
 use wheelflat::identify::synth::synthesize;
 use wheelflat::model::Flat;
 
-fn bank() -> &'static CachedBank {
+pub(crate) fn bank() -> &'static CachedBank {
     cached_bank("history-narrow", narrow_calibration, 2000, 500)
 }
 
@@ -18,7 +18,7 @@ fn bank() -> &'static CachedBank {
 const TRUTH: [f64; 3] = [62.0, 0.47, 0.03];
 
 /// A pass of the truth struck at `x_p`, with the bogie id line, seeded errors per Eq. 1.
-fn pass(x_p: f64, seed: u64, bogie: &str) -> String {
+pub(crate) fn pass(x_p: f64, seed: u64, bogie: &str) -> String {
     let flat = Flat::from_mm(TRUTH[0], TRUTH[1], TRUTH[2], x_p).unwrap();
     let csv = synthesize(&bank().1, &flat, seed, true).unwrap().csv;
     format!("# bogie_id = {bogie}\n{csv}")

@@ -17,6 +17,8 @@ mod corruption;
 mod diagnose;
 mod effects;
 mod family;
+mod fleet;
+mod fleet_cli;
 mod fuzz;
 mod growing;
 mod history;

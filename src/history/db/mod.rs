@@ -17,8 +17,9 @@
 //! ([`failures`]), the counts `/metrics` keeps ([`tally`]); writing a pass with its
 //! alarms is `history/write.rs`, beside the alarms it raises (which read this module).
 
+pub(crate) mod export;
 pub(crate) mod failures;
-pub(in crate::history) mod row;
+pub(crate) mod row;
 mod schema;
 pub(crate) mod tally;
 
@@ -35,7 +36,7 @@ pub(crate) const APPLICATION_ID: i32 = 0x5746_4C54;
 /// The schema this wheelflat writes and reads (3: the alarms' outbox and each pass's answer
 /// time; 2: the passes refused or failed, and where a pass's result was written). An older
 /// file is upgraded when opened for writing, and read as it is when opened read-only.
-pub(crate) const SCHEMA_VERSION: i32 = 3;
+pub const SCHEMA_VERSION: i32 = 3;
 /// How long a reader or writer waits for another's lock (ms).
 pub(crate) const BUSY_TIMEOUT_MS: u64 = 10_000;
 /// The most passes one query returns (a window larger than this is cut to the newest).

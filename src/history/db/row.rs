@@ -26,29 +26,29 @@ pub struct StoredPass {
 }
 
 /// A row as read, checked by [`RawRow::parse`].
-pub(super) struct RawRow {
-    pub(super) pass_id: i64,
-    pub(super) time: String,
-    pub(super) time_s: f64,
-    pub(super) measurement: String,
-    pub(super) speed: Option<f64>,
-    pub(super) bank_speed: f64,
-    pub(super) bank_id: String,
-    pub(super) wheel: String,
-    pub(super) claim: String,
-    pub(super) l0: (Option<f64>, Option<f64>),
-    pub(super) severity: (Option<String>, Option<String>),
-    pub(super) limit: Option<f64>,
-    pub(super) space: String,
-    pub(super) cells: i64,
-    pub(super) boxes: Vec<u8>,
-    pub(super) dynamic_ratio: (Option<f64>, Option<f64>),
+pub(crate) struct RawRow {
+    pub(crate) pass_id: i64,
+    pub(crate) time: String,
+    pub(crate) time_s: f64,
+    pub(crate) measurement: String,
+    pub(crate) speed: Option<f64>,
+    pub(crate) bank_speed: f64,
+    pub(crate) bank_id: String,
+    pub(crate) wheel: String,
+    pub(crate) claim: String,
+    pub(crate) l0: (Option<f64>, Option<f64>),
+    pub(crate) severity: (Option<String>, Option<String>),
+    pub(crate) limit: Option<f64>,
+    pub(crate) space: String,
+    pub(crate) cells: i64,
+    pub(crate) boxes: Vec<u8>,
+    pub(crate) dynamic_ratio: (Option<f64>, Option<f64>),
 }
 
 impl RawRow {
     /// The stored pass, every value checked before it is trusted.
     // Err(String): what is wrong; the caller names the file and the pass (`DbError::Corrupt`).
-    pub(super) fn parse(self) -> Result<StoredPass, String> {
+    pub(crate) fn parse(self) -> Result<StoredPass, String> {
         let wheel = match self.wheel.as_str() {
             "leading" => WheelPosition::Leading,
             "trailing" => WheelPosition::Trailing,
@@ -125,10 +125,7 @@ pub(crate) fn severity_of(s: &str) -> Option<Severity> {
 
 /// The classes of a stored range (`severity_lowest`, `severity_highest`), none when either is
 /// absent or not a class name (the lists' reading; [`RawRow::parse`] refuses a bad name).
-pub(in crate::history) fn severity_range(
-    lo: Option<&str>,
-    hi: Option<&str>,
-) -> Option<SeverityRange> {
+pub(crate) fn severity_range(lo: Option<&str>, hi: Option<&str>) -> Option<SeverityRange> {
     let lowest = severity_of(lo?)?;
     let highest = severity_of(hi?)?;
     Some(SeverityRange { lowest, highest })
