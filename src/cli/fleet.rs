@@ -153,14 +153,14 @@ pub(super) fn run(a: &FleetCommandArgs) -> Result<()> {
             println!("{}: {} sites", target.shown(), sites.len());
             println!(
                 "{:<20} {:>9} {:>20} {:>10} {:>9} {:>8} {:>10}",
-                "site", "passes", "newest pass", "bank age", "refusals", "drift", "lag"
+                "site", "shipped", "newest pass", "bank age", "refusals", "drift", "lag"
             );
             for s in sites {
                 println!(
                     "{:<20} {:>9} {:>20} {:>10} {:>9} {:>8} {:>10}",
                     s.site,
                     s.newest_seq,
-                    s.newest_pass_s.map_or("—".into(), |t| words::time(t)),
+                    s.newest_pass_s.map_or("—".into(), words::time),
                     s.bank_since_s.map_or("—".into(), |t| words::age(now - t)),
                     s.refusals_24h,
                     s.drift_alarms_7d,

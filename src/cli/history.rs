@@ -201,14 +201,7 @@ fn across(a: &HistoryArgs, target: &wheelflat::fleet::FleetTarget) -> Result<()>
         rules.inspect_l0_mm,
     );
     // Each pass named by its site in the report's lines.
-    let named: Vec<_> = passes
-        .iter()
-        .map(|p| {
-            let mut s = p.pass.clone();
-            s.measurement = format!("{}: {}", p.site, s.measurement);
-            s
-        })
-        .collect();
+    let named = wheelflat::fleet::named_by_site(&passes);
     let ratios = [rules.inspect_dynamic_ratio, rules.urgent_dynamic_ratio];
     let report = HistoryReport::new(
         wheel,

@@ -128,6 +128,12 @@ pub fn main() -> ExitCode {
     }
 }
 
+/// The time of a log line: RFC 3339 in UTC with milliseconds, e.g.
+/// `2026-11-26T15:40:12.345Z` (readable, sortable, and parsed by every log tool).
+pub(super) fn stamp() -> String {
+    chrono::Utc::now().to_rfc3339_opts(chrono::SecondsFormat::Millis, true)
+}
+
 /// Writes a file through [`wheelflat::atomic::write_atomically`], naming it in the error (the
 /// library's I/O error alone does not say which file).
 fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {

@@ -61,7 +61,8 @@ fn round(shipper: &mut Shipper, db: &Path, batch: usize) -> Result<(String, Ship
 }
 
 /// Ships until `stop`: a round every `every`, a line when something was shipped, the first
-/// error of a run said once (then tries again, backing off to a minute), the recovery said.
+/// error of an outage said once (another error while it lasts said as "still not shipping";
+/// tries again, backing off to a minute), the recovery said.
 pub(super) fn follow(
     shipper: &mut Shipper,
     db: &Path,
@@ -89,12 +90,14 @@ pub(super) fn follow(
             }
             Err(e) => {
                 let msg = e.to_string();
-                if failing.as_deref() != Some(msg.as_str()) {
-                    log(format!(
+                match &failing {
+                    None => log(format!(
                         "cannot ship: {msg}; the site keeps its passes and tries again"
-                    ));
-                    failing = Some(msg);
+                    )),
+                    Some(before) if *before != msg => log(format!("still not shipping: {msg}")),
+                    Some(_) => {}
                 }
+                failing = Some(msg);
                 wait = (wait * 2).min(Duration::from_secs(MAX_BACKOFF_S));
             }
         }
@@ -119,7 +122,7 @@ pub(super) fn run(a: &ShipArgs) -> Result<()> {
         }
         println!(
             "{} shipping {} to {} every {} s",
-            super::watch::stamp(),
+            super::stamp(),
             a.db.display(),
             shipper.target().shown(),
             a.every
@@ -130,9 +133,9 @@ pub(super) fn run(a: &ShipArgs) -> Result<()> {
             a.batch as usize,
             Duration::from_secs(a.every),
             &stop,
-            |l| println!("{} {l}", super::watch::stamp()),
+            |l| println!("{} {l}", super::stamp()),
         );
-        println!("{} stopped", super::watch::stamp());
+        println!("{} stopped", super::stamp());
         return Ok(());
     }
     let t = Instant::now();

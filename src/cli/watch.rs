@@ -26,6 +26,7 @@
 
 use super::args::WatchArgs;
 use super::db_args::{outcome_line, Store};
+use super::stamp;
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -243,12 +244,6 @@ fn move_into(path: &Path, dir: &Path) -> Result<PathBuf> {
     std::fs::rename(path, &to)
         .with_context(|| format!("cannot move {} to {}", path.display(), to.display()))?;
     Ok(to)
-}
-
-/// The time of a log line: RFC 3339 in UTC with milliseconds, e.g.
-/// `2026-11-26T15:40:12.345Z` (readable, sortable, and parsed by every log tool).
-pub(super) fn stamp() -> String {
-    chrono::Utc::now().to_rfc3339_opts(chrono::SecondsFormat::Millis, true)
 }
 
 /// Runs the loop until a signal (or, with `--once`, until the inbox is empty).

@@ -6,7 +6,7 @@
 //! outvoted.
 
 use super::SitePass;
-use crate::history::{fuse, Agreement, FusionRule, Joint, WheelPass};
+use crate::history::{fuse, strict_without_each, Agreement, FusionRule, Joint, WheelPass};
 use serde::Serialize;
 
 /// What one site's passes say beside the others'.
@@ -48,28 +48,23 @@ pub fn across_sites(
     let mut names: Vec<&str> = passes.iter().map(|p| p.site.as_str()).collect();
     names.sort_unstable();
     names.dedup();
-    let strict = |keep: &dyn Fn(&SitePass) -> bool| -> Option<bool> {
-        let ws: Vec<WheelPass> = passes
-            .iter()
-            .filter(|p| keep(p) && p.pass.wheel.claim.informative())
-            .map(|p| p.pass.wheel.clone())
-            .collect();
-        if ws.is_empty() {
-            return None;
-        }
-        let j = fuse(&ws, FusionRule::All, phi, urgent_l0_mm, inspect_l0_mm);
-        Some(j.agreement == Agreement::Consistent)
-    };
-    let all_agree = strict(&|_| true);
+    let group_of: Vec<usize> = passes
+        .iter()
+        .map(|p| {
+            names
+                .binary_search(&p.site.as_str())
+                .expect("a listed site")
+        })
+        .collect();
+    let (all_agree, without) = strict_without_each(&wheels, &group_of, names.len());
     let mut sites = Vec::new();
     let mut disagreeing = Vec::new();
-    for &s in &names {
+    for (g, &s) in names.iter().enumerate() {
         let n = passes.iter().filter(|p| p.site == s).count();
         let informative = passes
             .iter()
             .any(|p| p.site == s && p.pass.wheel.claim.informative());
-        let others = strict(&|p: &SitePass| p.site != s);
-        let agrees = match (informative, others, all_agree) {
+        let agrees = match (informative, without[g], all_agree) {
             (false, _, _) | (_, None, _) => None,
             (true, Some(_), Some(true)) => Some(true),
             // The others agree among themselves, and not with this site.

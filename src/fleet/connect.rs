@@ -43,8 +43,25 @@ impl Password {
         }
     }
 
-    /// The password in a file (its first line; at most [`MAX_PASSWORD_BYTES`]).
+    /// The password in a file (its first line; at most [`MAX_PASSWORD_BYTES`]); refused when
+    /// others than its owner may read it (as libpq ignores such a `.pgpass`).
     pub fn from_file(path: &Path) -> Result<Password, FleetError> {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            if let Ok(m) = std::fs::metadata(path) {
+                if m.permissions().mode() & 0o077 != 0 {
+                    return Err(FleetError::File {
+                        what: "password",
+                        path: path.to_path_buf(),
+                        why: format!(
+                            "mode {:o}: readable by others than its owner (chmod 600 it)",
+                            m.permissions().mode() & 0o777
+                        ),
+                    });
+                }
+            }
+        }
         let text = read_bounded(path, MAX_PASSWORD_BYTES, "password")?;
         Password::new(text.lines().next().unwrap_or(""), path)
     }
@@ -264,6 +281,24 @@ mod tests {
         assert!(!t.uses_tls());
         let e = FleetTarget::new("http://x", None, None).unwrap_err();
         assert!(e.to_string().contains("not a postgresql:// URL"), "{e}");
+    }
+
+    #[test]
+    fn a_password_file_others_may_read_is_refused() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = std::env::temp_dir().join(format!("wf-pw-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("pw");
+        std::fs::write(&f, "secret\n").unwrap();
+        std::fs::set_permissions(&f, std::fs::Permissions::from_mode(0o644)).unwrap();
+        let e = Password::from_file(&f).unwrap_err();
+        assert!(
+            e.to_string().contains("chmod 600") && !e.to_string().contains("secret"),
+            "{e}"
+        );
+        std::fs::set_permissions(&f, std::fs::Permissions::from_mode(0o600)).unwrap();
+        assert_eq!(Password::from_file(&f).unwrap().expose(), "secret");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -151,14 +151,7 @@ pub(super) fn fleet_wheel_view(
         s.limits_l0_mm[1],
         s.limits_l0_mm[0],
     );
-    let named: Vec<_> = passes
-        .iter()
-        .map(|p| {
-            let mut sp = p.pass.clone();
-            sp.measurement = format!("{}: {}", p.site, sp.measurement);
-            sp
-        })
-        .collect();
+    let named = crate::fleet::named_by_site(&passes);
     let report = HistoryReport::new(
         wheel_id,
         &named,

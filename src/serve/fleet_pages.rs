@@ -13,6 +13,7 @@ use super::fleet::{
     FleetView, FleetWheelView, WHEEL_LAST,
 };
 use super::layout::{l0_words, range_badges, respond, wheel_href};
+use super::routes::{blocking, query, Refusal};
 use crate::fleet::findings::Validation;
 use crate::fleet::words::{age, time};
 use crate::fleet::FleetError;
@@ -49,43 +50,7 @@ pub fn fleet_router(settings: FleetSettings) -> Result<Router, FleetError> {
         )))
 }
 
-/// A request that cannot be answered, with its reason.
-enum Refusal {
-    BadQuery(String),
-    NotFound(String),
-    Store(FleetError),
-    Internal(String),
-}
-
-impl IntoResponse for Refusal {
-    fn into_response(self) -> Response {
-        let (code, words) = match self {
-            Refusal::BadQuery(w) => (StatusCode::BAD_REQUEST, w),
-            Refusal::NotFound(w) => (StatusCode::NOT_FOUND, w),
-            Refusal::Store(e) => (StatusCode::SERVICE_UNAVAILABLE, e.to_string()),
-            Refusal::Internal(w) => (StatusCode::INTERNAL_SERVER_ERROR, w),
-        };
-        (code, format!("{words}\n")).into_response()
-    }
-}
-
-async fn blocking<T: Send + 'static>(
-    work: impl FnOnce() -> Result<T, FleetError> + Send + 'static,
-) -> Result<T, Refusal> {
-    match tokio::task::spawn_blocking(work).await {
-        Ok(r) => r.map_err(Refusal::Store),
-        Err(e) => Err(Refusal::Internal(format!(
-            "the request's work stopped: {e}"
-        ))),
-    }
-}
-
 type Q<T> = Result<Query<T>, axum::extract::rejection::QueryRejection>;
-
-fn query<T>(q: Q<T>) -> Result<T, Refusal> {
-    q.map(|Query(q)| q)
-        .map_err(|e| Refusal::BadQuery(e.body_text()))
-}
 
 async fn fleet_data(state: Shared) -> Result<FleetView, Refusal> {
     blocking(move || fleet_view(&state)).await
@@ -137,12 +102,7 @@ async fn wheel_json(State(state): State<Shared>, q: Q<WheelQuery>) -> Result<Res
 }
 
 async fn wheel_trend(State(state): State<Shared>, q: Q<WheelQuery>) -> Result<Response, Refusal> {
-    let v = wheel_data(state, q).await?;
-    let svg = tokio::task::spawn_blocking(move || crate::report::history::trend_svg(&v.report))
-        .await
-        .map_err(|e| Refusal::Internal(format!("the figure's work stopped: {e}")))?
-        .map_err(|e| Refusal::Internal(format!("the trend could not be drawn: {e}")))?;
-    Ok(([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response())
+    super::routes::trend_svg(wheel_data(state, q).await?.report).await
 }
 
 /// `/findings?days=`.

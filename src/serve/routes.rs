@@ -20,7 +20,6 @@ use super::pass::{content_type, pass_html, pass_view, result_file, MAX_RESULT_FI
 use super::site::{site_html, site_view, SiteQuery};
 use super::state::{AppState, Settings};
 use super::wheel::{wheel_html, wheel_view, WheelQuery};
-use crate::history::DbError;
 use axum::extract::{Path, Query, State};
 use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Json, Response};
@@ -79,14 +78,14 @@ fn count_in_background(state: &Shared) {
         .spawn(move || metrics_text(&state));
 }
 
-/// Why a request gets no page.
-enum Refusal {
+/// Why a request gets no page (the fleet's pages too: `fleet_pages`).
+pub(super) enum Refusal {
     /// 400: a query out of its range.
     BadQuery(String),
     /// 404: nothing there.
     NotFound(String),
-    /// 503: the database cannot be read now.
-    Db(DbError),
+    /// 503: the database (or the fleet store) cannot be read now.
+    Unavailable(String),
     /// 500: the request's work stopped (a defect).
     Internal(String),
 }
@@ -96,19 +95,19 @@ impl IntoResponse for Refusal {
         let (code, words) = match self {
             Refusal::BadQuery(w) => (StatusCode::BAD_REQUEST, w),
             Refusal::NotFound(w) => (StatusCode::NOT_FOUND, w),
-            Refusal::Db(e) => (StatusCode::SERVICE_UNAVAILABLE, e.to_string()),
+            Refusal::Unavailable(w) => (StatusCode::SERVICE_UNAVAILABLE, w),
             Refusal::Internal(w) => (StatusCode::INTERNAL_SERVER_ERROR, w),
         };
         (code, format!("{words}\n")).into_response()
     }
 }
 
-/// Runs blocking database work on the blocking pool.
-async fn blocking<T: Send + 'static>(
-    work: impl FnOnce() -> Result<T, DbError> + Send + 'static,
+/// Runs blocking database work on the blocking pool; its error is a 503 with its words.
+pub(super) async fn blocking<T: Send + 'static, E: std::fmt::Display + Send + 'static>(
+    work: impl FnOnce() -> Result<T, E> + Send + 'static,
 ) -> Result<T, Refusal> {
     match tokio::task::spawn_blocking(work).await {
-        Ok(r) => r.map_err(Refusal::Db),
+        Ok(r) => r.map_err(|e| Refusal::Unavailable(e.to_string())),
         Err(e) => Err(Refusal::Internal(format!(
             "the request's work stopped: {e}"
         ))),
@@ -116,7 +115,9 @@ async fn blocking<T: Send + 'static>(
 }
 
 /// A query that did not parse (axum's words) or is out of range.
-fn query<T>(q: Result<Query<T>, axum::extract::rejection::QueryRejection>) -> Result<T, Refusal> {
+pub(super) fn query<T>(
+    q: Result<Query<T>, axum::extract::rejection::QueryRejection>,
+) -> Result<T, Refusal> {
     q.map(|Query(q)| q)
         .map_err(|e| Refusal::BadQuery(e.body_text()))
 }
@@ -181,8 +182,14 @@ async fn wheel_trend(
     State(state): State<Shared>,
     q: Result<Query<WheelQuery>, axum::extract::rejection::QueryRejection>,
 ) -> Result<Response, Refusal> {
-    let v = wheel_data(state, q).await?;
-    let svg = tokio::task::spawn_blocking(move || crate::report::history::trend_svg(&v.report))
+    trend_svg(wheel_data(state, q).await?.report).await
+}
+
+/// A wheel's trend figure drawn on the blocking pool, as SVG (the fleet's wheel page too).
+pub(super) async fn trend_svg(
+    report: crate::report::history::HistoryReport,
+) -> Result<Response, Refusal> {
+    let svg = tokio::task::spawn_blocking(move || crate::report::history::trend_svg(&report))
         .await
         .map_err(|e| Refusal::Internal(format!("the figure's work stopped: {e}")))?
         .map_err(|e| Refusal::Internal(format!("the trend could not be drawn: {e}")))?;

@@ -69,6 +69,13 @@ impl PgCluster {
     /// Starts a cluster with the fleet database made; why not when the machine has no
     /// PostgreSQL server (or no `openssl`, or is root without a `postgres` user).
     pub fn start() -> Result<PgCluster, String> {
+        PgCluster::start_with(false)
+    }
+
+    /// A cluster; `durable`: the server's defaults (fsync, synchronous commit, full pages),
+    /// as a measurement of shipping needs; else those off (the tests' speed: a test's data
+    /// need not survive a machine crash).
+    pub fn start_with(durable: bool) -> Result<PgCluster, String> {
         let bin = bin_dir().ok_or(
             "no PostgreSQL server programs (/usr/lib/postgresql/*/bin; apt-get install postgresql, or set WHEELFLAT_PG_BIN)",
         )?;
@@ -123,14 +130,16 @@ impl PgCluster {
                 .arg(format!("--pwfile={}", base.join("pw").display())),
             "initdb",
         )?;
-        let conf = format!(
+        let mut conf = format!(
             "port = {port}\nlisten_addresses = '127.0.0.1'\nunix_socket_directories = '{}'\n\
-             ssl = on\nssl_cert_file = '{}'\nssl_key_file = '{}'\nfsync = off\n\
-             synchronous_commit = off\nfull_page_writes = off\nmax_connections = 200\n",
+             ssl = on\nssl_cert_file = '{}'\nssl_key_file = '{}'\nmax_connections = 200\n",
             base.display(),
             base.join("server.crt").display(),
             base.join("server.key").display()
         );
+        if !durable {
+            conf.push_str("fsync = off\nsynchronous_commit = off\nfull_page_writes = off\n");
+        }
         let mut c =
             std::fs::read_to_string(data.join("postgresql.conf")).map_err(|e| e.to_string())?;
         c.push_str(&conf);
@@ -167,7 +176,7 @@ impl PgCluster {
         }
     }
 
-    fn as_owner<'a>(&self, cmd: &'a mut Command, what: &str) -> Result<String, String> {
+    fn as_owner(&self, cmd: &mut Command, what: &str) -> Result<String, String> {
         match &self.run_as {
             Some(user) => {
                 let prog = cmd.get_program().to_owned();
@@ -258,30 +267,28 @@ impl PgCluster {
         Ok(())
     }
 
-    /// Starts the server (after [`PgCluster::stop`]), waiting until it accepts connections.
-    pub fn start_server(&self) -> Result<(), String> {
+    /// `pg_ctl -D DATA -l LOG ARGS`, as the server's owner.
+    fn pg_ctl(&self, args: &[&str]) -> Result<(), String> {
         self.as_owner(
             Command::new(self.bin.join("pg_ctl"))
                 .arg("-D")
                 .arg(self.base.join("data"))
                 .arg("-l")
                 .arg(self.base.join("log"))
-                .args(["-w", "-t", "60", "start"]),
-            "pg_ctl start",
+                .args(args),
+            &format!("pg_ctl {}", args.last().copied().unwrap_or("")),
         )
         .map(|_| ())
     }
 
+    /// Starts the server (after [`PgCluster::stop`]), waiting until it accepts connections.
+    pub fn start_server(&self) -> Result<(), String> {
+        self.pg_ctl(&["-w", "-t", "60", "start"])
+    }
+
     /// Stops the server (`fast`: open connections are cut).
     pub fn stop(&self) -> Result<(), String> {
-        self.as_owner(
-            Command::new(self.bin.join("pg_ctl"))
-                .arg("-D")
-                .arg(self.base.join("data"))
-                .args(["-w", "-m", "fast", "stop"]),
-            "pg_ctl stop",
-        )
-        .map(|_| ())
+        self.pg_ctl(&["-w", "-m", "fast", "stop"])
     }
 
     /// `postgresql://USER@127.0.0.1:PORT/fleet`, plain (loopback) or asking for TLS.
@@ -306,13 +313,7 @@ impl PgCluster {
 
 impl Drop for PgCluster {
     fn drop(&mut self) {
-        let _ = self.as_owner(
-            Command::new(self.bin.join("pg_ctl"))
-                .arg("-D")
-                .arg(self.base.join("data"))
-                .args(["-w", "-m", "immediate", "stop"]),
-            "pg_ctl stop",
-        );
+        let _ = self.pg_ctl(&["-w", "-m", "immediate", "stop"]);
         let _ = std::fs::remove_dir_all(&self.base);
     }
 }

@@ -442,6 +442,49 @@ fn a_site_whose_passes_leave_the_others_is_named_and_a_wrong_password_is_refused
     let text = wheelflat::fleet::words::across_text(&across);
     assert!(text.contains("DISAGREES"), "{text}");
 
+    // Wheel W8: small at a (three passes), then larger at b (three passes, later): grew
+    // across sites, the sites on both sides named.
+    for (site, flat, t0) in [
+        ("a", (30.0, 0.3), 1.9e9),
+        ("b", (60.0, 0.8), 1.9e9 + 86_400.0),
+    ] {
+        let path = dir.path().join(format!("{site}.sqlite"));
+        let mut db = Db::open(&path).unwrap();
+        for i in 0..3 {
+            db.insert(&record(
+                &format!("{site}-w8-{i}"),
+                "W8",
+                t0 + 600.0 * i as f64,
+                Some(flat),
+            ))
+            .unwrap();
+        }
+        let t = login(&pg, &format!("site_{site}"), &format!("pw-{site}"));
+        Shipper::new(t)
+            .round(&Db::open_read_only(&path).unwrap(), 100, |_| {})
+            .unwrap();
+    }
+    let passes = r
+        .wheel_passes(
+            "W8/leading",
+            Window {
+                last: 50,
+                hours: None,
+            },
+        )
+        .unwrap();
+    let across = across_sites(&passes, FusionRule::Robust, 0.95, 40.0, 25.0);
+    let change = across.change.clone().unwrap_or_default();
+    assert!(
+        change.starts_with("grew between a") && change.contains("and b"),
+        "{change:?} {:?}",
+        across.joint.agreement
+    );
+    assert!(
+        across.disagreeing.is_empty(),
+        "a flat that grew is not a disagreeing site"
+    );
+
     let e = FleetReader::connect(&login(&pg, "planner", "not-the-password"))
         .err()
         .unwrap();
