@@ -221,32 +221,36 @@ fn measure(reader: &FleetTarget, wheels: usize) {
     );
     // A wheel's cross-site history: read and fused (the newest 5, and 100).
     let mut r = wheelflat::fleet::FleetReader::connect(reader).unwrap();
-    let mut hist = |last: usize| -> (Vec<f64>, usize) {
-        let mut n_passes = 0;
-        let ms = (0..200)
-            .map(|k| {
-                let id = format!("W{:05}/leading", (k * 97) % (wheels / 2));
-                let t = Instant::now();
-                let p = r.wheel_passes(&id, Window { last, hours: None }).unwrap();
-                let _ = across_sites(
-                    &p,
-                    FusionRule::Robust,
-                    rules.phi,
-                    rules.urgent_l0_mm,
-                    rules.inspect_l0_mm,
-                );
-                n_passes += p.len();
-                t.elapsed().as_secs_f64() * 1e3
-            })
-            .collect();
-        (ms, n_passes / 200)
+    // (total, read, fused) ms of each of 200 wheels, and the passes read on average.
+    let mut hist = |last: usize| -> (Vec<f64>, Vec<f64>, Vec<f64>, usize) {
+        let (mut total, mut read, mut fused, mut n_passes) = (vec![], vec![], vec![], 0);
+        for k in 0..200 {
+            let id = format!("W{:05}/leading", (k * 97) % (wheels / 2));
+            let t = Instant::now();
+            let p = r.wheel_passes(&id, Window { last, hours: None }).unwrap();
+            let t_read = t.elapsed().as_secs_f64() * 1e3;
+            let _ = across_sites(
+                &p,
+                FusionRule::Robust,
+                rules.phi,
+                rules.urgent_l0_mm,
+                rules.inspect_l0_mm,
+            );
+            let t_all = t.elapsed().as_secs_f64() * 1e3;
+            n_passes += p.len();
+            total.push(t_all);
+            read.push(t_read);
+            fused.push(t_all - t_read);
+        }
+        (total, read, fused, n_passes / 200)
     };
-    let (h5, n5) = hist(5);
-    let (a, b, m) = percentiles(h5);
-    println!("cross-site history, newest 5 ({n5} passes read): p50 {a:.1} ms, p95 {b:.1} ms, max {m:.1} ms");
-    let (h100, n100) = hist(100);
-    let (a, b, m) = percentiles(h100);
-    println!("cross-site history, newest 100 ({n100} passes read): p50 {a:.1} ms, p95 {b:.1} ms, max {m:.1} ms");
+    for last in [5, 20, 100] {
+        let (total, read, fused, n) = hist(last);
+        let (a, b, m) = percentiles(total);
+        let (ra, rb, _) = percentiles(read);
+        let (fa, fb, _) = percentiles(fused);
+        println!("cross-site history, newest {last} ({n} passes read): p50 {a:.1} ms, p95 {b:.1} ms, max {m:.1} ms (read p50 {ra:.1} / p95 {rb:.1} ms, fused p50 {fa:.1} / p95 {fb:.1} ms)");
+    }
     let wheel_page = percentiles(page("/wheel?id=W00042%2Fleading", 50));
     println!(
         "wheel page /wheel (20 passes): p50 {:.1} ms, p95 {:.1} ms",

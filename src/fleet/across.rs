@@ -17,7 +17,8 @@ pub struct SiteVerdict {
     /// Its passes in the window.
     pub passes: usize,
     /// Whether its passes and the other sites' allow a common answer (strictly: every pass);
-    /// none when only this site, or only it, says anything of the flat.
+    /// none when only this site, or only it, says anything of the flat, or when the flat
+    /// changed over time (the change is said instead).
     pub agrees: Option<bool>,
 }
 
@@ -57,6 +58,8 @@ pub fn across_sites(
         })
         .collect();
     let (all_agree, without) = strict_without_each(&wheels, &group_of, names.len());
+    // A flat that changed over time explains passes that share nothing: no site is named.
+    let changed = matches!(joint.agreement, Agreement::Changed { .. });
     let mut sites = Vec::new();
     let mut disagreeing = Vec::new();
     for (g, &s) in names.iter().enumerate() {
@@ -65,6 +68,7 @@ pub fn across_sites(
             .iter()
             .any(|p| p.site == s && p.pass.wheel.claim.informative());
         let agrees = match (informative, without[g], all_agree) {
+            _ if changed => None,
             (false, _, _) | (_, None, _) => None,
             (true, Some(_), Some(true)) => Some(true),
             // The others agree among themselves, and not with this site.

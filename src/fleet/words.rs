@@ -38,7 +38,7 @@ pub fn across_text(a: &AcrossSites) -> String {
         let verdict = match s.agrees {
             Some(true) => "agrees with the other sites",
             Some(false) => "DISAGREES: its passes and the other sites' allow no common flat",
-            None => "alone, or says nothing of the flat",
+            None => "no verdict (the only site, silent, or the flat changed over time)",
         };
         out.push_str(&format!(
             "  {:<20} {:>4} passes  {verdict}\n",
