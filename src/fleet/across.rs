@@ -6,7 +6,7 @@
 //! outvoted.
 
 use super::SitePass;
-use crate::history::{fuse, strict_without_each, Agreement, FusionRule, Joint, WheelPass};
+use crate::history::{fuse_grouped, Agreement, FusionRule, Joint, WheelPass};
 use serde::Serialize;
 
 /// What one site's passes say beside the others'.
@@ -45,7 +45,6 @@ pub fn across_sites(
     inspect_l0_mm: f64,
 ) -> AcrossSites {
     let wheels: Vec<WheelPass> = passes.iter().map(|p| p.pass.wheel.clone()).collect();
-    let joint = fuse(&wheels, rule, phi, urgent_l0_mm, inspect_l0_mm);
     let mut names: Vec<&str> = passes.iter().map(|p| p.site.as_str()).collect();
     names.sort_unstable();
     names.dedup();
@@ -57,7 +56,15 @@ pub fn across_sites(
                 .expect("a listed site")
         })
         .collect();
-    let (all_agree, without) = strict_without_each(&wheels, &group_of, names.len());
+    let (joint, all_agree, without) = fuse_grouped(
+        &wheels,
+        rule,
+        phi,
+        urgent_l0_mm,
+        inspect_l0_mm,
+        &group_of,
+        names.len(),
+    );
     // A flat that changed over time explains passes that share nothing: no site is named.
     let changed = matches!(joint.agreement, Agreement::Changed { .. });
     let mut sites = Vec::new();

@@ -147,6 +147,22 @@ pub fn fuse(
     urgent_l0_mm: f64,
     inspect_l0_mm: f64,
 ) -> Joint {
+    fuse_grouped(passes, rule, phi, urgent_l0_mm, inspect_l0_mm, &[], 0).0
+}
+
+/// [`fuse`], and for passes labelled with their group (`group_of[i] < groups`, a site each)
+/// whether they all share a hypothesis and whether each group's others do
+/// ([`super::groups::from_marks`]) — from the same grid and the same marks
+/// of each pass's cells (computed once: they are most of a fusion's time).
+pub fn fuse_grouped(
+    passes: &[WheelPass],
+    rule: FusionRule,
+    phi: f64,
+    urgent_l0_mm: f64,
+    inspect_l0_mm: f64,
+    group_of: &[usize],
+    groups: usize,
+) -> (Joint, Option<bool>, Vec<Option<bool>>) {
     let silent: Vec<usize> = (0..passes.len())
         .filter(|&i| !passes[i].claim.informative())
         .collect();
@@ -178,11 +194,17 @@ pub fn fuse(
             "no joint answer: none of the {} passes says anything of this wheel's flat (refuted or not seen)",
             passes.len()
         );
-        return joint;
+        return (joint, None, vec![None; groups]);
     }
     let refs: Vec<&WheelPass> = used.iter().map(|&i| &passes[i]).collect();
     let grid = Grid::over(&refs);
     let hyps: Vec<Hyp> = refs.iter().map(|p| Hyp::of(p, &grid)).collect();
+    let (all_agree, without) = if groups > 0 {
+        let labels: Vec<usize> = used.iter().map(|&i| group_of[i]).collect();
+        super::groups::from_marks(&hyps, &labels, groups)
+    } else {
+        (None, Vec::new())
+    };
     let n = hyps.len();
     let strict = all_of(hyps.iter(), &grid);
     let robust = |idx: &[usize]| -> Hyp {
@@ -244,7 +266,7 @@ pub fn fuse(
     joint.severity = severity;
     joint.words = words(&joint, &used, passes.len(), any_found);
     joint.set = Some((grid, set));
-    joint
+    (joint, all_agree, without)
 }
 
 /// A run of consecutive passes that agree: from pass `first` to the next run's first (or

@@ -3,34 +3,23 @@
 //! prefix and suffix intersections — linear in the groups, where fusing every "all but one"
 //! afresh was quadratic (a wheel seen at 50 sites: 52 fusions of 100 passes each).
 
-use super::grid::{Grid, Hyp};
-use super::record::WheelPass;
+use super::grid::Hyp;
 
-/// For passes labelled with their group (`group_of[i] < groups`): whether every informative
-/// pass allows a common hypothesis (none when no pass is informative), and, for each group,
-/// whether the informative passes of the other groups do (none when no other group has one).
-/// "Allows" is the fusion's: a grid cell touched by a surviving cell, a good wheel, a flat
-/// below the population.
-pub fn strict_without_each(
-    passes: &[WheelPass],
-    group_of: &[usize],
+/// For the informative passes' marks on one grid, labelled with their group (`labels[i] <
+/// groups`): whether every pass allows a common hypothesis, and, for each group, whether the
+/// passes of the other groups do (none when no other group has a pass). "Allows" is the
+/// fusion's: a grid cell touched by a surviving cell, a good wheel, a flat below the population.
+pub(super) fn from_marks(
+    marks: &[Hyp],
+    labels: &[usize],
     groups: usize,
 ) -> (Option<bool>, Vec<Option<bool>>) {
-    let used: Vec<usize> = (0..passes.len())
-        .filter(|&i| passes[i].claim.informative())
-        .collect();
-    if used.is_empty() {
-        return (None, vec![None; groups]);
-    }
-    let refs: Vec<&WheelPass> = used.iter().map(|&i| &passes[i]).collect();
-    let grid = Grid::over(&refs);
     let mut per: Vec<Option<Hyp>> = vec![None; groups];
-    for &i in &used {
-        let h = Hyp::of(&passes[i], &grid);
-        let g = &mut per[group_of[i]];
-        *g = Some(match g.take() {
-            None => h,
-            Some(o) => o.and(&h),
+    for (h, &g) in marks.iter().zip(labels) {
+        let slot = &mut per[g];
+        *slot = Some(match slot.take() {
+            None => h.clone(),
+            Some(o) => o.and(h),
         });
     }
     let and = |a: Option<Hyp>, b: &Option<Hyp>| match (a, b) {

@@ -19,8 +19,7 @@ pub use db::export::{ExportAlarm, ExportFailure, ExportPass, ExportWheel, Newest
 pub use db::failures::{Failure, FailureKind};
 pub use db::tally::Tally;
 pub use db::{Db, DbError, StoredPass, Window, SCHEMA_VERSION};
-pub use fuse::{fuse, Agreement, FusionRule, Joint};
-pub use groups::strict_without_each;
+pub use fuse::{fuse, fuse_grouped, Agreement, FusionRule, Joint};
 pub use record::{Claim, PassMeta, PassRecord, Space, WheelPass};
 pub use rules::{AlarmPlan, Rule};
 pub use view::{BankUse, PassDetail, PassRow, WheelOutcome, WheelRow};
