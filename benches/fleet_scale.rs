@@ -37,7 +37,7 @@ fn site_db(path: &Path, template: &[ExportPass], site: usize, n: usize, wheels: 
         let time_s = 1.8e9 + 60.0 * i as f64 + site as f64;
         tx.execute(
             "INSERT INTO passes (key, time, time_s, measurement, bank_id, speed_km_per_h, bank_speed_km_per_h, load_kn, bogie_id, summary, result_dir, answer_ms) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)",
-            params![format!("s{site}-{i}"), t.time, time_s, t.measurement, t.bank_id, t.speed_km_per_h, t.bank_speed_km_per_h, t.load_kn, bogie, t.summary, t.result_dir, t.answer_ms],
+            params![format!("s{site}-{i}"), t.time, time_s, t.meta.measurement, t.meta.bank_id, t.meta.speed_km_per_h, t.meta.bank_speed_km_per_h, t.meta.load_kn, bogie, t.meta.summary, t.meta.result_dir, t.meta.answer_ms],
         )
         .unwrap();
         let id = tx.last_insert_rowid();

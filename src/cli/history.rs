@@ -193,22 +193,12 @@ fn across(a: &HistoryArgs, target: &wheelflat::fleet::FleetTarget) -> Result<()>
     if passes.is_empty() {
         anyhow::bail!("{}: no pass of wheel `{wheel}` at any site", target.shown());
     }
-    let across = wheelflat::fleet::across_sites(
-        &passes,
-        a.rule.fusion(),
-        rules.phi,
-        rules.urgent_l0_mm,
-        rules.inspect_l0_mm,
-    );
-    // Each pass named by its site in the report's lines.
-    let named = wheelflat::fleet::named_by_site(&passes);
-    let ratios = [rules.inspect_dynamic_ratio, rules.urgent_dynamic_ratio];
-    let report = HistoryReport::new(
-        wheel,
-        &named,
-        across.joint.clone(),
-        [[rules.inspect_l0_mm, rules.urgent_l0_mm], ratios],
-    );
+    let limits = [
+        [rules.inspect_l0_mm, rules.urgent_l0_mm],
+        [rules.inspect_dynamic_ratio, rules.urgent_dynamic_ratio],
+    ];
+    let (report, across) =
+        wheelflat::fleet::across_report(wheel, &passes, a.rule.fusion(), rules.phi, limits);
     print!(
         "{}",
         wheelflat::fleet::words::passes_text(wheel, &passes, &across.joint)

@@ -52,8 +52,13 @@ pub(super) fn shipped_line(site: &str, s: &Shipped, took: Duration) -> String {
     )
 }
 
-/// One round: the site database opened read-only, everything the store lacks sent.
-fn round(shipper: &mut Shipper, db: &Path, batch: usize) -> Result<(String, Shipped), FleetError> {
+/// One round: the site database opened read-only, everything the store lacks sent (also
+/// `watch --once --fleet`'s last step).
+pub(super) fn round(
+    shipper: &mut Shipper,
+    db: &Path,
+    batch: usize,
+) -> Result<(String, Shipped), FleetError> {
     let site = shipper.connect()?;
     let db = Db::open_read_only(db)?;
     let s = shipper.round(&db, batch, |_| {})?;

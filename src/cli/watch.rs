@@ -445,15 +445,7 @@ pub(super) fn run(a: &WatchArgs) -> Result<()> {
     if let (true, Some(target), Some(path)) = (a.once, fleet, &a.store.db) {
         let mut shipper = wheelflat::fleet::Shipper::new(target);
         let t = std::time::Instant::now();
-        match wheelflat::history::Db::open_read_only(path)
-            .map_err(wheelflat::fleet::FleetError::from)
-            .and_then(|db| {
-                let site = shipper.connect()?;
-                Ok((
-                    site,
-                    shipper.round(&db, wheelflat::fleet::ship::DEFAULT_BATCH, |_| {})?,
-                ))
-            }) {
+        match super::ship::round(&mut shipper, path, wheelflat::fleet::ship::DEFAULT_BATCH) {
             Ok((site, s)) => println!(
                 "{} {}",
                 stamp(),

@@ -6,7 +6,8 @@
 //! outvoted.
 
 use super::SitePass;
-use crate::history::{fuse_grouped, Agreement, FusionRule, Joint, WheelPass};
+use crate::history::{fuse_grouped, Agreement, FusionRule, Joint, StoredPass, WheelPass};
+use crate::report::history::HistoryReport;
 use serde::Serialize;
 
 /// What one site's passes say beside the others'.
@@ -121,6 +122,29 @@ pub fn across_sites(
         disagreeing,
         change,
     }
+}
+
+/// A wheel's passes at every site as `history` reports them — each pass's file named by its
+/// site (`north: a.csv`) — with the joint answer and the sites' verdicts; the limits are
+/// `[[inspect, urgent] L0 mm, [inspect, urgent] dynamic ratio]`.
+pub fn across_report(
+    wheel_id: &str,
+    passes: &[SitePass],
+    rule: FusionRule,
+    phi: f64,
+    limits: [[f64; 2]; 2],
+) -> (HistoryReport, AcrossSites) {
+    let across = across_sites(passes, rule, phi, limits[0][1], limits[0][0]);
+    let named: Vec<StoredPass> = passes
+        .iter()
+        .map(|p| {
+            let mut s = p.pass.clone();
+            s.measurement = format!("{}: {}", p.site, s.measurement);
+            s
+        })
+        .collect();
+    let report = HistoryReport::new(wheel_id, &named, across.joint.clone(), limits);
+    (report, across)
 }
 
 /// Distinct names, in first-seen order, joined.

@@ -22,11 +22,11 @@ pub mod schema;
 pub mod ship;
 pub mod words;
 
-pub use across::{across_sites, AcrossSites, SiteVerdict};
+pub use across::{across_report, across_sites, AcrossSites, SiteVerdict};
 pub use connect::{FleetTarget, Password};
 pub use error::FleetError;
 pub use findings::{Finding, FindingRow, Judged, Validation, ValidationRow};
-pub use read::{named_by_site, FleetReader, SiteHealth, SitePass, WheelLatest};
+pub use read::{FleetReader, SiteHealth, SitePass, WheelLatest};
 pub use roles::LoginKind;
 pub use schema::FLEET_SCHEMA_VERSION;
 pub use ship::{Shipped, Shipper};

@@ -21,19 +21,6 @@ pub struct SitePass {
     pub pass: StoredPass,
 }
 
-/// The passes as a site's history holds them, each file named by its site (`north: a.csv`),
-/// for the history report and its trend.
-pub fn named_by_site(passes: &[SitePass]) -> Vec<StoredPass> {
-    passes
-        .iter()
-        .map(|p| {
-            let mut s = p.pass.clone();
-            s.measurement = format!("{}: {}", p.site, s.measurement);
-            s
-        })
-        .collect()
-}
-
 /// A wheel's newest pass at any site.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct WheelLatest {

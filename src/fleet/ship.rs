@@ -186,7 +186,7 @@ fn ship_all(
                     &rows.iter().map(|r| r.time_s).collect::<Vec<_>>(),
                     &rows.iter().map(|r| r.measurement.as_str()).collect::<Vec<_>>(),
                     &rows.iter().map(|r| r.bogie_id.as_deref()).collect::<Vec<_>>(),
-                    &rows.iter().map(|r| r.outcome.as_str()).collect::<Vec<_>>(),
+                    &rows.iter().map(|r| r.kind.as_str()).collect::<Vec<_>>(),
                     &rows.iter().map(|r| r.reason.as_str()).collect::<Vec<_>>(),
                 ],
             )
@@ -246,7 +246,7 @@ fn heartbeat(
     }
     let newest_s = db.pass_time_s(newest)?;
     let oldest_pending_s = if done.pending > 0 {
-        db.passes_after(shipped, 1)?.first().map(|p| p.time_s)
+        db.passes_after(shipped, 1)?.first().map(|p| p.meta.time_s)
     } else {
         None
     };
@@ -289,18 +289,18 @@ pub fn send_passes(
             &[
                 &site,
                 &passes.iter().map(|p| p.id).collect::<Vec<_>>(),
-                &passes.iter().map(|p| p.key.as_str()).collect::<Vec<_>>(),
+                &passes.iter().map(|p| p.meta.key.as_str()).collect::<Vec<_>>(),
                 &passes.iter().map(|p| p.time.as_str()).collect::<Vec<_>>(),
-                &passes.iter().map(|p| p.time_s).collect::<Vec<_>>(),
-                &passes.iter().map(|p| p.measurement.as_str()).collect::<Vec<_>>(),
-                &passes.iter().map(|p| p.bank_id.as_str()).collect::<Vec<_>>(),
-                &col(|p| p.speed_km_per_h),
-                &passes.iter().map(|p| p.bank_speed_km_per_h).collect::<Vec<_>>(),
-                &col(|p| p.load_kn),
-                &passes.iter().map(|p| p.bogie_id.as_deref()).collect::<Vec<_>>(),
-                &passes.iter().map(|p| p.summary.as_str()).collect::<Vec<_>>(),
-                &passes.iter().map(|p| p.result_dir.as_deref()).collect::<Vec<_>>(),
-                &col(|p| p.answer_ms),
+                &passes.iter().map(|p| p.meta.time_s).collect::<Vec<_>>(),
+                &passes.iter().map(|p| p.meta.measurement.as_str()).collect::<Vec<_>>(),
+                &passes.iter().map(|p| p.meta.bank_id.as_str()).collect::<Vec<_>>(),
+                &col(|p| p.meta.speed_km_per_h),
+                &passes.iter().map(|p| p.meta.bank_speed_km_per_h).collect::<Vec<_>>(),
+                &col(|p| p.meta.load_kn),
+                &passes.iter().map(|p| p.meta.bogie_id.as_deref()).collect::<Vec<_>>(),
+                &passes.iter().map(|p| p.meta.summary.as_str()).collect::<Vec<_>>(),
+                &passes.iter().map(|p| p.meta.result_dir.as_deref()).collect::<Vec<_>>(),
+                &col(|p| p.meta.answer_ms),
             ],
         )
         .map_err(target.sql("shipping passes"))?
@@ -327,7 +327,7 @@ pub fn send_passes(
                 &wheels.iter().map(|(p, _)| p.id).collect::<Vec<_>>(),
                 &wheels.iter().map(|(_, w)| w.wheel.as_str()).collect::<Vec<_>>(),
                 &wheels.iter().map(|(_, w)| w.wheel_id.as_deref()).collect::<Vec<_>>(),
-                &wheels.iter().map(|(p, _)| p.time_s).collect::<Vec<_>>(),
+                &wheels.iter().map(|(p, _)| p.meta.time_s).collect::<Vec<_>>(),
                 &wheels.iter().map(|(_, w)| w.claim.as_str()).collect::<Vec<_>>(),
                 &wheels.iter().map(|(_, w)| w.l0_mm.0).collect::<Vec<_>>(),
                 &wheels.iter().map(|(_, w)| w.l0_mm.1).collect::<Vec<_>>(),

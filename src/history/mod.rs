@@ -15,7 +15,7 @@ pub(crate) mod view;
 mod write;
 
 pub use alarms::{AlarmBody, AlarmCounts, AlarmRow, AlarmStatus, DriftLine, BODY_SCHEMA};
-pub use db::export::{ExportAlarm, ExportFailure, ExportPass, ExportWheel, NewestIds};
+pub use db::export::{ExportAlarm, ExportPass, ExportWheel, NewestIds};
 pub use db::failures::{Failure, FailureKind};
 pub use db::tally::Tally;
 pub use db::{Db, DbError, StoredPass, Window, SCHEMA_VERSION};

@@ -8,7 +8,7 @@
 
 use crate::fleet::findings::{validate, Validation};
 use crate::fleet::{
-    across_sites, AcrossSites, FindingRow, FleetError, FleetReader, FleetTarget, SiteHealth,
+    across_report, AcrossSites, FindingRow, FleetError, FleetReader, FleetTarget, SiteHealth,
     WheelLatest,
 };
 use crate::history::{FusionRule, Window};
@@ -144,18 +144,11 @@ pub(super) fn fleet_wheel_view(
     if passes.is_empty() {
         return Ok(None);
     }
-    let across = across_sites(
+    let (report, across) = across_report(
+        wheel_id,
         &passes,
         FusionRule::Robust,
         s.phi,
-        s.limits_l0_mm[1],
-        s.limits_l0_mm[0],
-    );
-    let named = crate::fleet::named_by_site(&passes);
-    let report = HistoryReport::new(
-        wheel_id,
-        &named,
-        across.joint.clone(),
         [s.limits_l0_mm, s.limits_dynamic_ratio],
     );
     Ok(Some(FleetWheelView {
@@ -184,15 +177,15 @@ pub(super) fn fleet_metrics(state: &FleetState) -> Result<String, FleetError> {
     use super::metrics::{family, gauge, label};
     use prometheus::proto::MetricType;
     use prometheus::{Encoder, TextEncoder};
-    let v = fleet_view(state)?;
+    let now_s = crate::fleet::words::now_s();
+    let (sites, action) = state.read(|r| Ok((r.sites(now_s)?, r.action_wheels(ACTION_WHEELS)?)))?;
     let per_site = |f: &dyn Fn(&SiteHealth) -> Option<f64>| {
-        v.sites
+        sites
             .iter()
             .filter_map(|s| f(s).map(|x| gauge(vec![label("site", &s.site)], x)))
             .collect::<Vec<_>>()
     };
-    let urgent = v
-        .action
+    let urgent = action
         .iter()
         .filter(|w| {
             w.severity
@@ -230,7 +223,7 @@ pub(super) fn fleet_metrics(state: &FleetState) -> Result<String, FleetError> {
             MetricType::GAUGE,
             vec![
                 gauge(vec![label("class", "urgent")], urgent as f64),
-                gauge(vec![label("class", "inspect")], (v.action.len() - urgent) as f64),
+                gauge(vec![label("class", "inspect")], (action.len() - urgent) as f64),
             ],
         ),
     ];

@@ -18,7 +18,7 @@ use crate::fleet::findings::Validation;
 use crate::fleet::words::{age, time};
 use crate::fleet::FleetError;
 use axum::extract::{Query, State};
-use axum::http::{header, HeaderMap, StatusCode};
+use axum::http::{HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Json, Response};
 use axum::routing::get;
 use axum::Router;
@@ -138,15 +138,9 @@ async fn findings_json(
 }
 
 async fn metrics(State(state): State<Shared>) -> Result<Response, Refusal> {
-    let text = blocking(move || fleet_metrics(&state)).await?;
-    Ok((
-        [(
-            header::CONTENT_TYPE,
-            "text/plain; version=0.0.4; charset=utf-8",
-        )],
-        text,
-    )
-        .into_response())
+    Ok(super::routes::metrics_response(
+        blocking(move || fleet_metrics(&state)).await?,
+    ))
 }
 
 async fn health(State(state): State<Shared>) -> Result<Response, Refusal> {

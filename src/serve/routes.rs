@@ -294,15 +294,21 @@ async fn alarms_json(
 }
 
 async fn metrics(State(state): State<Shared>) -> Result<Response, Refusal> {
-    let text = blocking(move || metrics_text(&state)).await?;
-    Ok((
+    Ok(metrics_response(
+        blocking(move || metrics_text(&state)).await?,
+    ))
+}
+
+/// Metrics text as the Prometheus text format's response (the fleet's `/metrics` too).
+pub(super) fn metrics_response(text: String) -> Response {
+    (
         [(
             header::CONTENT_TYPE,
             "text/plain; version=0.0.4; charset=utf-8",
         )],
         text,
     )
-        .into_response())
+        .into_response()
 }
 
 async fn health(State(state): State<Shared>) -> Result<Response, Refusal> {

@@ -152,6 +152,15 @@ pub fn fleet_with_sites(pg: &PgCluster, names: &[&str]) -> FleetTarget {
     a
 }
 
+/// Ships the database at `path` as `site` (login `site_<site>`, password `pw-<site>`), 100
+/// rows a transaction.
+pub fn ship(pg: &PgCluster, site: &str, path: &Path) -> wheelflat::fleet::Shipped {
+    let t = login(pg, &format!("site_{site}"), &format!("pw-{site}"));
+    Shipper::new(t)
+        .round(&Db::open_read_only(path).unwrap(), 100, |_| {})
+        .unwrap()
+}
+
 /// A login's target over TLS, checked against the run's CA.
 pub fn login(pg: &PgCluster, role: &str, pw: &str) -> FleetTarget {
     FleetTarget::new(&pg.url(role, true), Some(password(pw)), Some(&pg.ca)).unwrap()
@@ -416,10 +425,7 @@ fn a_site_whose_passes_leave_the_others_is_named_and_a_wrong_password_is_refused
             ))
             .unwrap();
         }
-        let t = login(&pg, &format!("site_{site}"), &format!("pw-{site}"));
-        Shipper::new(t)
-            .round(&Db::open_read_only(&path).unwrap(), 100, |_| {})
-            .unwrap();
+        ship(&pg, site, &path);
     }
     let mut r = FleetReader::connect(&login(&pg, "planner", "pw-planner")).unwrap();
     let passes = r
@@ -459,10 +465,7 @@ fn a_site_whose_passes_leave_the_others_is_named_and_a_wrong_password_is_refused
             ))
             .unwrap();
         }
-        let t = login(&pg, &format!("site_{site}"), &format!("pw-{site}"));
-        Shipper::new(t)
-            .round(&Db::open_read_only(&path).unwrap(), 100, |_| {})
-            .unwrap();
+        ship(&pg, site, &path);
     }
     let passes = r
         .wheel_passes(

@@ -351,10 +351,7 @@ fn the_fleet_pages_show_wheels_needing_action_sites_a_wheel_across_sites_and_the
     for (s, t0) in [("north", 1.8e9), ("south", 1.8e9 + 30.0)] {
         let p = dir.path().join(format!("{s}.sqlite"));
         site_db(&p, s, 100, t0);
-        let t = super::fleet::login(&pg, &format!("site_{s}"), &format!("pw-{s}"));
-        wheelflat::fleet::Shipper::new(t)
-            .round(&Db::open_read_only(&p).unwrap(), 100, |_| {})
-            .unwrap();
+        super::fleet::ship(&pg, s, &p);
     }
     drop(a);
     let settings = wheelflat::serve::FleetSettings {
@@ -590,19 +587,9 @@ fn the_store_stopped_for_a_minute_loses_nothing_and_the_site_keeps_storing() {
     crate::common::wait_for(120, "every pass after the restart", || {
         count() == Some((n, n, n))
     });
-    terminate(&child);
+    crate::common::terminate(&child);
     child.wait().unwrap();
     let log = lines.join().unwrap().join("\n");
     assert_eq!(log.matches("cannot ship").count(), 1, "said once: {log}");
     assert_eq!(log.matches("reached again").count(), 1, "{log}");
-}
-
-/// SIGTERM to a child (its `--follow` loop stops at the end of a round).
-fn terminate(child: &std::process::Child) {
-    let ok = std::process::Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
-        .unwrap()
-        .success();
-    assert!(ok);
 }

@@ -190,10 +190,7 @@ fn a_pad_that_drops_is_found_by_one_nights_traffic_and_the_bank_follows() {
     let c = flats(&after, "c", &mut drop);
     let morning = goods(50..60, &mut drop);
     wait_for(120, "the flats on the new bank", answered(dropped.get()));
-    Command::new("kill")
-        .args(["-TERM", &watcher.id().to_string()])
-        .status()
-        .unwrap();
+    crate::common::terminate(&watcher);
     assert!(watcher.wait().unwrap().success());
     let lines = log_lines.join().unwrap();
     assert!(

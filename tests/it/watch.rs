@@ -211,11 +211,7 @@ fn watch_identifies_every_file_once_against_one_bank_while_the_bank_is_regenerat
     wait_for(60, "phase 3", processed(41 + bad.len()));
 
     // A clean stop on SIGTERM.
-    let status = std::process::Command::new("kill")
-        .args(["-TERM", &watcher.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(status.success());
+    common::terminate(&watcher);
     assert!(
         watcher.wait().unwrap().success(),
         "watch exits 0 on SIGTERM"

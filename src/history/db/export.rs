@@ -3,8 +3,10 @@
 //! they were stored. A wheel's row is checked as `history` reads it before it leaves
 //! ([`RawRow::parse`]): a damaged row stops the shipping by name, never reaches the fleet.
 
+use super::failures::Failure;
 use super::row::RawRow;
 use super::{Db, DbError};
+use crate::history::record::PassMeta;
 use rusqlite::params;
 
 /// A stored pass as it leaves the site.
@@ -12,30 +14,10 @@ use rusqlite::params;
 pub struct ExportPass {
     /// Its row id at the site: the order the site stored it in.
     pub id: i64,
-    /// The pass's key (the SHA-256 of its record and bogie place).
-    pub key: String,
-    /// When it was identified (RFC 3339) and the same in Unix seconds.
+    /// When it was identified (RFC 3339; `meta.time_s` in Unix seconds).
     pub time: String,
-    /// Unix seconds.
-    pub time_s: f64,
-    /// The measurement file.
-    pub measurement: String,
-    /// The bank (member) it was compared with.
-    pub bank_id: String,
-    /// The pass's speed (km/h).
-    pub speed_km_per_h: Option<f64>,
-    /// The bank's speed (km/h).
-    pub bank_speed_km_per_h: f64,
-    /// The wheel load (kN).
-    pub load_kn: Option<f64>,
-    /// The bogie.
-    pub bogie_id: Option<String>,
-    /// The answer in words.
-    pub summary: String,
-    /// Where its result was written (schema 2 on).
-    pub result_dir: Option<String>,
-    /// How long its answer took (ms; schema 3 on).
-    pub answer_ms: Option<f64>,
+    /// What the pass is besides its wheels, as it was stored.
+    pub meta: PassMeta,
     /// Its wheels, leading then trailing.
     pub wheels: Vec<ExportWheel>,
 }
@@ -63,25 +45,6 @@ pub struct ExportWheel {
     pub boxes: Vec<u8>,
     /// Dynamic ratio range.
     pub dynamic_ratio: (Option<f64>, Option<f64>),
-}
-
-/// A pass that gave no answer, as it leaves the site.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ExportFailure {
-    /// Its row id at the site.
-    pub id: i64,
-    /// RFC 3339.
-    pub time: String,
-    /// Unix seconds.
-    pub time_s: f64,
-    /// The file.
-    pub measurement: String,
-    /// The bogie, when named.
-    pub bogie_id: Option<String>,
-    /// `refused` or `failed`.
-    pub outcome: String,
-    /// Why.
-    pub reason: String,
 }
 
 /// An alarm raised at the site (one row a destination), as it leaves the site: what was
@@ -173,18 +136,20 @@ impl Db {
             .query_map(params![after, limit as i64], |r| {
                 Ok(ExportPass {
                     id: r.get(0)?,
-                    key: r.get(1)?,
                     time: r.get(2)?,
-                    time_s: r.get(3)?,
-                    measurement: r.get(4)?,
-                    bank_id: r.get(5)?,
-                    speed_km_per_h: r.get(6)?,
-                    bank_speed_km_per_h: r.get(7)?,
-                    load_kn: r.get(8)?,
-                    bogie_id: r.get(9)?,
-                    summary: r.get(10)?,
-                    result_dir: r.get(11)?,
-                    answer_ms: r.get(12)?,
+                    meta: PassMeta {
+                        key: r.get(1)?,
+                        time_s: r.get(3)?,
+                        measurement: r.get(4)?,
+                        bank_id: r.get(5)?,
+                        speed_km_per_h: r.get(6)?,
+                        bank_speed_km_per_h: r.get(7)?,
+                        load_kn: r.get(8)?,
+                        bogie_id: r.get(9)?,
+                        summary: r.get(10)?,
+                        result_dir: r.get(11)?,
+                        answer_ms: r.get(12)?,
+                    },
                     wheels: Vec::new(),
                 })
             })
@@ -235,32 +200,9 @@ impl Db {
     }
 
     /// The passes refused or failed with a row id above `after`, oldest first, at most `limit`
-    /// (none in a version-1 file).
-    pub fn failures_after(&self, after: i64, limit: usize) -> Result<Vec<ExportFailure>, DbError> {
-        if self.version < 2 {
-            return Ok(Vec::new());
-        }
-        let mut st = self
-            .conn
-            .prepare_cached(
-                "SELECT id, time, time_s, measurement, bogie_id, outcome, reason FROM failures
-                 WHERE id > ?1 ORDER BY id LIMIT ?2",
-            )
-            .map_err(|e| self.sql(e))?;
-        let rows = st
-            .query_map(params![after, limit as i64], |r| {
-                Ok(ExportFailure {
-                    id: r.get(0)?,
-                    time: r.get(1)?,
-                    time_s: r.get(2)?,
-                    measurement: r.get(3)?,
-                    bogie_id: r.get(4)?,
-                    outcome: r.get(5)?,
-                    reason: r.get(6)?,
-                })
-            })
-            .map_err(|e| self.sql(e))?;
-        rows.collect::<Result<_, _>>().map_err(|e| self.sql(e))
+    /// (none in a version-1 file), each checked as the site's pages read them.
+    pub fn failures_after(&self, after: i64, limit: usize) -> Result<Vec<Failure>, DbError> {
+        self.failures_where("id > ?1 ORDER BY id", &after, limit)
     }
 
     /// The alarms raised with a row id above `after`, oldest first, at most `limit` (none
@@ -300,10 +242,10 @@ fn check_wheel(p: &ExportPass, w: &ExportWheel) -> Result<(), String> {
     RawRow {
         pass_id: p.id,
         time: p.time.clone(),
-        time_s: p.time_s,
+        time_s: p.meta.time_s,
         measurement: String::new(),
-        speed: p.speed_km_per_h,
-        bank_speed: p.bank_speed_km_per_h,
+        speed: p.meta.speed_km_per_h,
+        bank_speed: p.meta.bank_speed_km_per_h,
         bank_id: String::new(),
         wheel: w.wheel.clone(),
         claim: w.claim.clone(),

@@ -73,18 +73,33 @@ impl Db {
     /// The passes that gave no answer since `since_s` (Unix seconds), newest first, at most
     /// `limit` (none in a version-1 file, which did not keep them).
     pub fn failures_since(&self, since_s: f64, limit: usize) -> Result<Vec<Failure>, DbError> {
+        self.failures_where(
+            "time_s >= ?1 ORDER BY time_s DESC, id DESC",
+            &since_s,
+            limit,
+        )
+    }
+
+    /// The failures `WHERE <clause> LIMIT limit` (the clause's one parameter `?1` is
+    /// `bound`), each outcome checked (none in a version-1 file).
+    pub(super) fn failures_where(
+        &self,
+        clause: &str,
+        bound: &dyn rusqlite::ToSql,
+        limit: usize,
+    ) -> Result<Vec<Failure>, DbError> {
         if self.version < 2 {
             return Ok(Vec::new());
         }
         let mut st = self
             .conn
-            .prepare_cached(
+            .prepare_cached(&format!(
                 "SELECT id, time, time_s, measurement, bogie_id, outcome, reason FROM failures
-                 WHERE time_s >= ?1 ORDER BY time_s DESC, id DESC LIMIT ?2",
-            )
+                 WHERE {clause} LIMIT ?2"
+            ))
             .map_err(|e| self.sql(e))?;
         let rows = st
-            .query_map(params![since_s, limit as i64], |r| {
+            .query_map(params![bound, limit as i64], |r| {
                 Ok((
                     r.get::<_, i64>(0)?,
                     r.get::<_, String>(1)?,

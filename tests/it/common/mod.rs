@@ -264,3 +264,13 @@ pub fn answered(inbox: &Path, n: usize) -> impl FnMut() -> bool {
         names_in(&done).len() + f >= n
     }
 }
+
+/// SIGTERM to a child (`watch` and `ship --follow` stop cleanly on it), the signal sent.
+pub fn terminate(child: &std::process::Child) {
+    let sent = std::process::Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap()
+        .success();
+    assert!(sent, "SIGTERM to {}", child.id());
+}
